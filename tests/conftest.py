@@ -1,0 +1,29 @@
+"""Shared fixtures. Tests needing ../shared/data skip with a clear reason when it is absent."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED_DATA = Path(os.environ.get("GAITWATCH_SHARED_DATA", REPO.parent / "shared" / "data"))
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    """The folder of real recordings beside the checkout (``../shared/data``)."""
+    if not SHARED_DATA.is_dir():
+        pytest.skip(
+            f"shared recordings not found at {SHARED_DATA} "
+            "(set GAITWATCH_SHARED_DATA or place shared/ beside the checkout)"
+        )
+    return SHARED_DATA
+
+
+def shared_file(shared_data: Path, rel: str) -> Path:
+    p = shared_data / rel
+    if not p.is_file():
+        pytest.skip(f"shared file {rel} not found under {shared_data}")
+    return p
