@@ -1,0 +1,220 @@
+"""Segmentation on synthetic frames with a known silhouette."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from tracker.segmentation import (
+    Segmentation,
+    SegmentationConfig,
+    SegmentationError,
+    Segmenter,
+    downscale_mask,
+    keep_blobs,
+)
+
+W, H = 320, 240
+
+
+def _background(rng: np.random.Generator) -> np.ndarray:
+    """A textured, colourful scene: smooth random colour field plus a few 'furniture' shapes."""
+    coarse = rng.uniform(60, 200, (12, 16, 3)).astype(np.float32)
+    bg = cv2.resize(coarse, (W, H), interpolation=cv2.INTER_CUBIC)
+    bg += rng.normal(0, 6, bg.shape).astype(np.float32)  # fine texture
+    img = np.clip(bg, 0, 255).astype(np.uint8)
+    cv2.rectangle(img, (10, 150), (70, 230), (30, 60, 140), -1)
+    cv2.circle(img, (270, 60), 25, (180, 180, 40), -1)
+    return img
+
+
+def _person_mask(cx: int = 150, top: int = 40) -> np.ndarray:
+    """A person-like silhouette: head, trunk, two arms, two legs (bool H x W)."""
+    m = np.zeros((H, W), np.uint8)
+    cv2.circle(m, (cx, top + 14), 13, 1, -1)  # head
+    cv2.rectangle(m, (cx - 18, top + 28), (cx + 18, top + 100), 1, -1)  # trunk
+    cv2.line(m, (cx - 20, top + 32), (cx - 34, top + 95), 1, 9)  # arms
+    cv2.line(m, (cx + 20, top + 32), (cx + 36, top + 92), 1, 9)
+    cv2.line(m, (cx - 9, top + 100), (cx - 22, top + 180), 1, 13)  # legs
+    cv2.line(m, (cx + 9, top + 100), (cx + 16, top + 180), 1, 13)
+    return m.astype(bool)
+
+
+def _frame(
+    bg: np.ndarray,
+    person: np.ndarray | None,
+    rng: np.random.Generator,
+    *,
+    shadow: bool = False,
+    speckles: bool = False,
+    noise: float = 4.0,
+) -> np.ndarray:
+    f = bg.astype(np.float32)
+    if shadow:
+        sh = np.zeros((H, W), np.uint8)
+        cv2.ellipse(sh, (210, 215), (60, 16), 0, 0, 360, 1, -1)  # cast on the floor
+        f[sh.astype(bool)] *= 0.6
+    if person is not None:
+        # Clothes: a colour unlike the scene, with some shading so it is not flat.
+        shade = np.linspace(0.8, 1.1, H, dtype=np.float32)[:, None, None]
+        clothes = np.broadcast_to(np.array([200, 40, 230], np.float32) * shade, f.shape)
+        f[person] = clothes[person]
+    f += rng.normal(0, noise, f.shape).astype(np.float32)
+    img = np.clip(f, 0, 255).astype(np.uint8)
+    if speckles:
+        for x, y in rng.integers([5, 5], [W - 5, H - 5], (12, 2)):
+            img[y : y + 2, x : x + 2] = (255, 255, 255)
+    return img
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> float:
+    return float((a & b).sum() / max((a | b).sum(), 1))
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(7)
+
+
+def test_static_finds_the_person_and_not_the_shadow(rng: np.random.Generator) -> None:
+    bg = _background(rng)
+    person = _person_mask()
+    frame = _frame(bg, person, rng, shadow=True, speckles=True)
+    seg = Segmenter(SegmentationConfig(mode="static", output_size=(160, 120)), bg).apply(frame)
+    assert isinstance(seg, Segmentation)
+    assert not seg.empty
+    assert _iou(seg.mask_full, person) > 0.9
+    # The shadow region is not foreground.
+    sh = np.zeros((H, W), np.uint8)
+    cv2.ellipse(sh, (210, 215), (60, 16), 0, 0, 360, 1, -1)
+    sh = sh.astype(bool) & ~person
+    assert seg.mask_full[sh].mean() < 0.02
+    # Speckles are gone: one blob, the person, its centroid near the true one.
+    assert len(seg.blobs) == 1
+    ys, xs = np.nonzero(person)
+    assert abs(seg.blobs[0].centroid[0] - xs.mean()) < 2
+    assert abs(seg.blobs[0].centroid[1] - ys.mean()) < 2
+    assert seg.blobs[0].area == seg.mask_full.sum()
+    # Low-resolution mask: majority downscale of the truth agrees.
+    assert seg.mask.shape == (120, 160)
+    assert _iou(seg.mask, downscale_mask(person, (160, 120))) > 0.88
+
+
+def test_shadow_is_foreground_without_suppression(rng: np.random.Generator) -> None:
+    bg = _background(rng)
+    frame = _frame(bg, None, rng, shadow=True)
+    on = Segmenter(SegmentationConfig(), bg).apply(frame)
+    off = Segmenter(SegmentationConfig(shadow_suppression=False), bg).apply(frame)
+    assert on.empty
+    assert not off.empty  # the same darkening is detected when not suppressed
+
+
+def test_empty_scene_is_empty(rng: np.random.Generator) -> None:
+    bg = _background(rng)
+    seg = Segmenter(SegmentationConfig(), bg).apply(_frame(bg, None, rng, speckles=True))
+    assert seg.empty
+    assert seg.blobs == []
+    assert not seg.mask.any() and not seg.mask_full.any()
+
+
+def test_small_person_below_minimum_area_counts_as_empty(rng: np.random.Generator) -> None:
+    bg = _background(rng)
+    person = _person_mask()
+    frame = _frame(bg, person, rng)
+    big = person.sum() / (H * W)
+    seg = Segmenter(SegmentationConfig(min_blob_fraction=big * 1.5), bg).apply(frame)
+    assert seg.empty
+    seg = Segmenter(SegmentationConfig(min_blob_pixels=int(person.sum() * 0.5)), bg).apply(frame)
+    assert not seg.empty
+
+
+def test_global_gain_compensates_uniform_light_change(rng: np.random.Generator) -> None:
+    bg = _background(rng)
+    person = _person_mask()
+    frame = np.clip(_frame(bg, person, rng).astype(np.float32) * 1.25, 0, 255).astype(np.uint8)
+    plain = Segmenter(SegmentationConfig(), bg).apply(frame)
+    gain = Segmenter(SegmentationConfig(global_gain=True), bg).apply(frame)
+    assert _iou(plain.mask_full, person) < 0.6  # the whole room changed
+    assert _iou(gain.mask_full, person) > 0.85
+
+
+@pytest.mark.parametrize("mode", ["mog2", "knn"])
+def test_adaptive_learns_background_then_finds_person(rng: np.random.Generator, mode: str) -> None:
+    bg = _background(rng)
+    seg = Segmenter(SegmentationConfig(mode=mode, history=50))
+    for _ in range(40):  # the empty room, with sensor noise
+        seg.apply(_frame(bg, None, rng))
+    person = _person_mask(cx=120)
+    out = seg.apply(_frame(bg, person, rng, shadow=True))
+    assert not out.empty
+    assert _iou(out.mask_full, person) > 0.8
+    assert len(out.blobs) == 1
+
+
+def test_keep_blobs_restricts_to_one_person(rng: np.random.Generator) -> None:
+    bg = _background(rng)
+    a = _person_mask(cx=70)
+    b = _person_mask(cx=230, top=20)
+    both = a | b
+    seg = Segmenter(SegmentationConfig(), bg).apply(_frame(bg, both, rng))
+    assert len(seg.blobs) == 2
+    right = max(seg.blobs, key=lambda bl: bl.centroid[0])
+    only = keep_blobs(seg, [right])
+    assert [bl.label for bl in only.blobs] == [right.label]
+    assert _iou(only.mask_full, b) > 0.9
+    assert not (only.mask_full & a).any()
+    assert only.mask.shape == seg.mask.shape
+    assert only.mask.sum() < seg.mask.sum()
+    assert not (only.mask & downscale_mask(a, (160, 120))).any()
+    none = keep_blobs(seg, [])
+    assert none.empty and not none.mask.any()
+    with pytest.raises(ValueError):
+        keep_blobs(seg, [99])
+
+
+def test_downscale_is_majority() -> None:
+    m = np.zeros((8, 8), bool)
+    m[0:4, 0:4] = True  # a full 4x4 block -> one pixel at 2x2
+    m[4:8, 4:6] = True  # exactly half of a block -> counts
+    m[0:1, 4:8] = True  # a quarter -> does not
+    small = downscale_mask(m, (2, 2))
+    assert small.tolist() == [[True, False], [False, True]]
+
+
+def test_bad_config_and_inputs(rng: np.random.Generator) -> None:
+    with pytest.raises(ValidationError):
+        SegmentationConfig(mode="magic")
+    with pytest.raises(ValidationError):
+        SegmentationConfig(thresh=3)  # unknown key
+    with pytest.raises(ValidationError):
+        SegmentationConfig(open_kernel=4)
+    with pytest.raises(SegmentationError, match="background"):
+        Segmenter(SegmentationConfig(mode="static"))
+    bg = _background(rng)
+    s = Segmenter(SegmentationConfig(), bg)
+    with pytest.raises(SegmentationError, match="differs"):
+        s.apply(bg[:100])
+    with pytest.raises(SegmentationError, match="uint8"):
+        s.apply(bg.astype(np.float32))
+
+
+def test_grey_frames_work(rng: np.random.Generator) -> None:
+    bg = cv2.cvtColor(_background(rng), cv2.COLOR_BGR2GRAY)
+    person = _person_mask()
+    frame = bg.copy()
+    frame[person] = 250
+    seg = Segmenter(SegmentationConfig(shadow_suppression=False), bg).apply(frame)
+    assert _iou(seg.mask_full, person) > 0.9
+
+
+@pytest.mark.parametrize("mode", ["mog2", "knn"])
+def test_seeded_adaptive_keeps_a_person_standing_still(rng: np.random.Generator, mode: str) -> None:
+    bg = _background(rng)
+    person = _person_mask()
+    seg = Segmenter(SegmentationConfig(mode=mode, history=300), bg)
+    ious = [_iou(seg.apply(_frame(bg, person, rng)).mask_full, person) for _ in range(30)]
+    assert min(ious) > 0.8
+    # ... and the room without the person is empty again.
+    assert seg.apply(_frame(bg, None, rng)).empty

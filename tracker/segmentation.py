@@ -1,0 +1,523 @@
+"""Background subtraction: camera frames -> binary silhouettes at the likelihood resolution.
+
+Pure computation on numpy arrays (OpenCV for the image operations); no file I/O.
+
+Two families of modes, chosen by :class:`SegmentationConfig`:
+
+``static``
+    The method's own: an image of the empty scene, a per-pixel colour difference (the maximum
+    absolute difference over the B, G, R channels), a threshold. Shadows -- pixels darker than
+    the background by a bounded ratio but of the same chromaticity -- are removed
+    (``shadow_suppression``). An optional global gain compensates a uniform change of
+    brightness between the background image and the footage.
+``mog2`` / ``knn``
+    OpenCV's adaptive Gaussian-mixture (MOG2) or k-nearest-neighbours (KNN) background models,
+    learned from the footage itself, for homes where the light changes. Their shadow detection
+    marks shadows 127, which count as background when shadow suppression is on.
+
+Then, in every mode: morphological opening (removes speckle) and closing (fills small holes),
+connected components, removal of blobs smaller than the minimum area, and a downscale to the
+likelihood resolution by area interpolation re-thresholded at 0.5 (a low-resolution pixel is
+foreground when at least half of the full-resolution pixels it covers are).
+
+The result, :class:`Segmentation`, carries the full-resolution mask, the low-resolution mask the
+likelihood uses, and the blobs (area, bounding box, centroid), so that a tracker can follow the
+one blob consistent with its track (:func:`keep_blobs`) and detect that nobody is in view
+(``empty``).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Annotated, Literal
+
+import cv2
+import numpy as np
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+
+from gaitwatch.errors import InputError
+
+log = logging.getLogger(__name__)
+
+_KNN_SEED_FRAMES = 10
+_EPS = 1.0  # added to channel sums so that black pixels have a defined chromaticity
+
+
+class SegmentationError(InputError):
+    """A frame or background image that cannot be segmented (wrong shape or type)."""
+
+
+def _odd_or_zero(v: int, name: str) -> int:
+    if v < 0:
+        raise ValueError(f"{name} must be >= 0")
+    if v > 1 and v % 2 == 0:
+        raise ValueError(f"{name} must be odd (or 0/1 for none), not {v}")
+    return v
+
+
+class SegmentationConfig(BaseModel):
+    """Settings of background subtraction. Unknown keys are rejected."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    mode: Annotated[
+        Literal["static", "mog2", "knn"],
+        Field(
+            description="static: difference to an image of the empty scene; mog2/knn: OpenCV's "
+            "adaptive background models learned from the footage"
+        ),
+    ] = "static"
+    threshold: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=255,
+            description="static mode: a pixel is foreground when its largest per-channel "
+            "absolute difference to the background exceeds this (0..255 grey levels)",
+        ),
+    ] = 30.0
+    blur: Annotated[
+        int,
+        Field(description="Gaussian pre-blur kernel size in pixels (odd; 0 or 1 for none)"),
+    ] = 3
+    global_gain: Annotated[
+        bool,
+        Field(
+            description="static mode: scale the background by the median frame/background "
+            "brightness ratio before differencing (compensates a uniform light change)"
+        ),
+    ] = False
+    shadow_suppression: Annotated[bool, Field(description="treat cast shadows as background")] = (
+        True
+    )
+    shadow_min_ratio: Annotated[
+        float,
+        Field(
+            gt=0,
+            lt=1,
+            description="a shadow is at least this fraction of the background's brightness "
+            "(static mode; in mog2 mode OpenCV's shadow threshold)",
+        ),
+    ] = 0.4
+    shadow_max_ratio: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=1.2,
+            description="static mode: a shadow is at most this fraction of the background's "
+            "brightness",
+        ),
+    ] = 0.95
+    shadow_chroma_tol: Annotated[
+        float,
+        Field(
+            gt=0,
+            lt=1,
+            description="static mode: largest difference of normalised chromaticity "
+            "(B, G, R each divided by B+G+R) between a shadow pixel and the background",
+        ),
+    ] = 0.04
+    open_kernel: Annotated[
+        int, Field(description="opening kernel size in pixels (odd; 0 or 1 for none)")
+    ] = 3
+    close_kernel: Annotated[
+        int, Field(description="closing kernel size in pixels (odd; 0 or 1 for none)")
+    ] = 7
+    min_blob_fraction: Annotated[
+        float,
+        Field(
+            ge=0,
+            lt=1,
+            description="blobs smaller than this fraction of the image area are removed",
+        ),
+    ] = 0.002
+    min_blob_pixels: Annotated[
+        int,
+        Field(
+            ge=0,
+            description="blobs smaller than this many full-resolution pixels are removed "
+            "(the larger of the two minimums applies)",
+        ),
+    ] = 0
+    output_size: Annotated[
+        tuple[int, int] | None,
+        Field(
+            description="likelihood resolution (width, height) of Segmentation.mask; None "
+            "keeps the frame's resolution"
+        ),
+    ] = (160, 120)
+    history: Annotated[
+        int, Field(gt=0, description="mog2/knn: number of frames the model remembers")
+    ] = 300
+    mog2_var_threshold: Annotated[
+        float,
+        Field(gt=0, description="mog2: squared Mahalanobis distance to count as foreground"),
+    ] = 16.0
+    knn_dist2_threshold: Annotated[
+        float,
+        Field(gt=0, description="knn: squared distance to the nearest samples for foreground"),
+    ] = 400.0
+    learning_rate: Annotated[
+        float,
+        Field(
+            ge=-1,
+            le=1,
+            description="mog2/knn: model update rate per frame; -1 lets OpenCV choose (1/history)",
+        ),
+    ] = -1.0
+
+    @field_validator("blur", "open_kernel", "close_kernel")
+    @classmethod
+    def _odd(cls, v: int, info: ValidationInfo) -> int:
+        return _odd_or_zero(v, info.field_name or "kernel")
+
+    @field_validator("output_size")
+    @classmethod
+    def _size_positive(cls, v: tuple[int, int] | None) -> tuple[int, int] | None:
+        if v is not None and (v[0] <= 0 or v[1] <= 0):
+            raise ValueError("width and height must be positive")
+        return v
+
+    @model_validator(mode="after")
+    def _ratios(self) -> SegmentationConfig:
+        if self.shadow_min_ratio >= self.shadow_max_ratio:
+            raise ValueError("shadow_min_ratio must be below shadow_max_ratio")
+        return self
+
+
+@dataclass(frozen=True)
+class Blob:
+    """One connected foreground region, in full-resolution pixel coordinates.
+
+    Attributes
+    ----------
+    label : int
+        Its label in :attr:`Segmentation.labels` (>= 1).
+    area : int
+        Number of full-resolution pixels.
+    area_fraction : float
+        ``area`` divided by the image area.
+    bbox : tuple of int
+        ``(x, y, width, height)`` in pixels.
+    centroid : tuple of float
+        ``(x, y)`` in pixels.
+    """
+
+    label: int
+    area: int
+    area_fraction: float
+    bbox: tuple[int, int, int, int]
+    centroid: tuple[float, float]
+
+
+@dataclass
+class Segmentation:
+    """The silhouette of one frame.
+
+    Attributes
+    ----------
+    mask_full : numpy.ndarray
+        bool (H, W): foreground at the frame's resolution, small blobs removed.
+    mask : numpy.ndarray
+        bool (h, w): the same at the likelihood resolution (``output_size``).
+    blobs : list of Blob
+        The blobs kept, largest first.
+    labels : numpy.ndarray
+        int32 (H, W): 0 for background, ``blob.label`` for each blob's pixels.
+    empty : bool
+        True when no blob reaches the minimum area (nobody in view).
+    """
+
+    mask_full: np.ndarray
+    mask: np.ndarray
+    blobs: list[Blob]
+    labels: np.ndarray
+    empty: bool = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.empty = len(self.blobs) == 0
+
+    @property
+    def output_size(self) -> tuple[int, int]:
+        """(width, height) of :attr:`mask`."""
+        return self.mask.shape[1], self.mask.shape[0]
+
+
+def downscale_mask(mask: np.ndarray, size: tuple[int, int] | None) -> np.ndarray:
+    """Downscale a bool mask (H, W) to ``size`` = (width, height) by majority.
+
+    Area interpolation then a threshold at 0.5: a low-resolution pixel is foreground when at
+    least half of the area it covers is. ``size`` None or equal to the mask's size returns a copy.
+    """
+    if size is None or (mask.shape[1], mask.shape[0]) == tuple(size):
+        return mask.astype(bool, copy=True)
+    small = cv2.resize(
+        mask.astype(np.float32), (int(size[0]), int(size[1])), interpolation=cv2.INTER_AREA
+    )
+    return small >= 0.5
+
+
+def keep_blobs(seg: Segmentation, blobs: Iterable[Blob | int]) -> Segmentation:
+    """Restrict a segmentation to chosen blobs (by :class:`Blob` or label).
+
+    Returns a new :class:`Segmentation` whose masks (both resolutions) hold only those blobs;
+    the likelihood-resolution mask is re-derived by the same majority downscale. Used by a
+    tracker to keep the person consistent with its track when several blobs are in view.
+    """
+    want = sorted({b.label if isinstance(b, Blob) else int(b) for b in blobs})
+    known = {b.label for b in seg.blobs}
+    unknown = [w for w in want if w not in known]
+    if unknown:
+        raise ValueError(f"labels {unknown} are not blobs of this segmentation")
+    if not want:
+        full = np.zeros_like(seg.mask_full)
+    else:
+        lut = np.zeros(int(seg.labels.max()) + 1, dtype=bool)
+        lut[want] = True
+        full = lut[seg.labels]
+    labels = np.where(full, seg.labels, 0).astype(np.int32)
+    kept = [b for b in seg.blobs if b.label in want]
+    small = downscale_mask(full, seg.output_size)
+    return Segmentation(mask_full=full, mask=small, blobs=kept, labels=labels)
+
+
+def _as_bgr(img: np.ndarray, what: str) -> np.ndarray:
+    """Validate an image and return it as uint8 (H, W, 3) BGR."""
+    img = np.asarray(img)
+    if img.dtype != np.uint8:
+        raise SegmentationError(f"{what}: expected 8-bit pixels (uint8), got {img.dtype}")
+    if img.ndim == 2:
+        return cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
+    if img.ndim == 3 and img.shape[2] == 3:
+        return img
+    if img.ndim == 3 and img.shape[2] == 4:
+        return cv2.cvtColor(img, cv2.COLOR_BGRA2BGR)
+    if img.ndim == 3 and img.shape[2] == 1:
+        return cv2.cvtColor(img[..., 0], cv2.COLOR_GRAY2BGR)
+    raise SegmentationError(f"{what}: expected an image (H, W) or (H, W, 3), got {img.shape}")
+
+
+def _kernel(size: int) -> np.ndarray | None:
+    if size <= 1:
+        return None
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+
+
+class Segmenter:
+    """Turns frames of one camera into :class:`Segmentation` results.
+
+    Parameters
+    ----------
+    config : SegmentationConfig
+        The settings.
+    background : numpy.ndarray, optional
+        uint8 (H, W, 3) BGR or (H, W) grey image of the empty scene. Required in ``static``
+        mode; in ``mog2``/``knn`` mode it seeds the model (otherwise the model starts from the
+        first frame and learns as the footage goes).
+
+    Notes
+    -----
+    One Segmenter per camera: the adaptive modes keep state between frames.
+    """
+
+    def __init__(self, config: SegmentationConfig, background: np.ndarray | None = None) -> None:
+        self.config = config
+        self._bg: np.ndarray | None = None
+        self._bg_f: np.ndarray | None = None
+        self._bg_chroma: np.ndarray | None = None
+        self._bg_bright: np.ndarray | None = None
+        self._model: cv2.BackgroundSubtractor | None = None
+        self._seeded = False
+        self._open = _kernel(config.open_kernel)
+        self._close = _kernel(config.close_kernel)
+        if config.mode != "static":
+            self._model = self._new_model()
+        if background is not None:
+            self.set_background(background)
+        elif config.mode == "static":
+            raise SegmentationError(
+                "static segmentation needs an image of the empty scene (background)"
+            )
+
+    # -- set-up -----------------------------------------------------------------------------
+    def _new_model(self) -> cv2.BackgroundSubtractor:
+        c = self.config
+        if c.mode == "mog2":
+            m = cv2.createBackgroundSubtractorMOG2(
+                history=c.history,
+                varThreshold=c.mog2_var_threshold,
+                detectShadows=c.shadow_suppression,
+            )
+            m.setShadowThreshold(c.shadow_min_ratio)
+        else:
+            m = cv2.createBackgroundSubtractorKNN(
+                history=c.history,
+                dist2Threshold=c.knn_dist2_threshold,
+                detectShadows=c.shadow_suppression,
+            )
+            m.setShadowThreshold(c.shadow_min_ratio)
+        return m
+
+    def _seed(self) -> None:
+        """Initialise the adaptive model from the background image, if one was given.
+
+        The seeded model is treated as mature: frames then update it at ``1 / history`` (when
+        ``learning_rate`` is -1) instead of OpenCV's fast start-up rate, which would absorb a
+        person standing still within a few frames.
+        """
+        if self._bg is None or self._model is None:
+            return
+        img = self._blurred(self._bg)
+        if self.config.mode == "mog2":
+            self._model.apply(img, learningRate=1.0)
+        else:  # KNN fills its sample buffers over several frames
+            for _ in range(_KNN_SEED_FRAMES):
+                self._model.apply(img, learningRate=-1)
+        self._seeded = True
+
+    @property
+    def _rate(self) -> float:
+        lr = self.config.learning_rate
+        if lr < 0 and self._seeded:
+            return 1.0 / self.config.history
+        return lr
+
+    def _blurred(self, img: np.ndarray) -> np.ndarray:
+        k = self.config.blur
+        if k <= 1:
+            return img
+        return cv2.GaussianBlur(img, (k, k), 0)
+
+    def set_background(self, background: np.ndarray) -> None:
+        """Use ``background`` (the empty scene) as the reference (static) or seed (mog2/knn)."""
+        bg = _as_bgr(background, "background image")
+        self._bg = bg
+        bgf = self._blurred(bg).astype(np.float32)
+        self._bg_f = bgf
+        s = bgf.sum(axis=2, keepdims=True) + _EPS
+        self._bg_bright = s[..., 0]
+        self._bg_chroma = bgf / s
+        if self._model is not None:
+            self.reset()
+
+    def learn(self, frames: Iterable[np.ndarray], learning_rate: float | None = None) -> None:
+        """Feed frames of the empty scene to the adaptive model (mog2/knn only)."""
+        if self._model is None:
+            raise ValueError("learn() is for the mog2/knn modes; static mode uses the background")
+        lr = self._rate if learning_rate is None else learning_rate
+        for f in frames:
+            self._model.apply(self._blurred(_as_bgr(f, "frame")), learningRate=lr)
+
+    def reset(self) -> None:
+        """Forget what the adaptive model learned (re-seeded by the background if given)."""
+        if self._model is not None:
+            self._model = self._new_model()
+            self._seeded = False
+            self._seed()
+
+    # -- per frame --------------------------------------------------------------------------
+    def raw_foreground(self, frame: np.ndarray) -> np.ndarray:
+        """Foreground before clean-up: bool (H, W), shadows already removed when asked."""
+        img = _as_bgr(frame, "frame")
+        if self._model is not None:
+            if self._bg is not None and img.shape != self._bg.shape:
+                raise SegmentationError(
+                    f"frame size {img.shape[1]}x{img.shape[0]} differs from the background "
+                    f"image's {self._bg.shape[1]}x{self._bg.shape[0]}"
+                )
+            out = self._model.apply(self._blurred(img), learningRate=self._rate)
+            # 255 foreground, 127 shadow (only when shadow detection is on), 0 background.
+            return out > 200
+        return self._static_foreground(img)
+
+    def _static_foreground(self, img: np.ndarray) -> np.ndarray:
+        c = self.config
+        bg, bgf = self._bg, self._bg_f
+        assert bg is not None and bgf is not None
+        if img.shape != bg.shape:
+            raise SegmentationError(
+                f"frame size {img.shape[1]}x{img.shape[0]} differs from the background "
+                f"image's {bg.shape[1]}x{bg.shape[0]}"
+            )
+        f = self._blurred(img).astype(np.float32)
+        ref = bgf
+        bright = f.sum(axis=2) + _EPS
+        if c.global_gain:
+            gain = float(np.median(bright / self._bg_bright))
+            ref = bgf * gain
+        diff = np.abs(f - ref).max(axis=2)
+        fg = diff > c.threshold
+        if c.shadow_suppression and fg.any():
+            # Only the candidate pixels need the shadow test.
+            idx = np.flatnonzero(fg)
+            fb = bright.reshape(-1)[idx]
+            bb = self._bg_bright.reshape(-1)[idx]
+            if c.global_gain:
+                bb = bb * gain
+            ratio = fb / bb
+            fch = f.reshape(-1, 3)[idx] / fb[:, None]
+            bch = self._bg_chroma.reshape(-1, 3)[idx]
+            chroma = np.abs(fch - bch).max(axis=1)
+            shadow = (
+                (ratio >= c.shadow_min_ratio)
+                & (ratio <= c.shadow_max_ratio)
+                & (chroma <= c.shadow_chroma_tol)
+            )
+            fg.reshape(-1)[idx[shadow]] = False
+        return fg
+
+    def clean(self, fg: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[Blob]]:
+        """Morphology and small-blob removal on a raw bool mask (H, W).
+
+        Returns the cleaned mask, the label image (int32, blobs relabelled 1..n largest first)
+        and the blobs.
+        """
+        c = self.config
+        m = fg.astype(np.uint8)
+        if self._open is not None:
+            m = cv2.morphologyEx(m, cv2.MORPH_OPEN, self._open)
+        if self._close is not None:
+            m = cv2.morphologyEx(m, cv2.MORPH_CLOSE, self._close)
+        h, w = m.shape
+        n, labels, stats, cents = cv2.connectedComponentsWithStats(m, connectivity=8)
+        min_area = max(c.min_blob_fraction * h * w, float(c.min_blob_pixels), 1.0)
+        areas = stats[1:, cv2.CC_STAT_AREA]
+        keep = np.flatnonzero(areas >= min_area) + 1
+        keep = keep[np.argsort(-stats[keep, cv2.CC_STAT_AREA], kind="stable")]
+        lut = np.zeros(n, dtype=np.int32)
+        lut[keep] = np.arange(1, keep.size + 1, dtype=np.int32)
+        new_labels = lut[labels]
+        blobs = [
+            Blob(
+                label=i + 1,
+                area=int(stats[k, cv2.CC_STAT_AREA]),
+                area_fraction=float(stats[k, cv2.CC_STAT_AREA]) / (h * w),
+                bbox=(
+                    int(stats[k, cv2.CC_STAT_LEFT]),
+                    int(stats[k, cv2.CC_STAT_TOP]),
+                    int(stats[k, cv2.CC_STAT_WIDTH]),
+                    int(stats[k, cv2.CC_STAT_HEIGHT]),
+                ),
+                centroid=(float(cents[k, 0]), float(cents[k, 1])),
+            )
+            for i, k in enumerate(keep)
+        ]
+        return new_labels > 0, new_labels, blobs
+
+    def apply(self, frame: np.ndarray) -> Segmentation:
+        """Segment one frame: uint8 (H, W, 3) BGR or (H, W) grey -> :class:`Segmentation`."""
+        fg = self.raw_foreground(frame)
+        mask_full, labels, blobs = self.clean(fg)
+        mask = downscale_mask(mask_full, self.config.output_size)
+        if not blobs:
+            log.debug("segmentation: no blob above the minimum area")
+        return Segmentation(mask_full=mask_full, mask=mask, blobs=blobs, labels=labels)
