@@ -332,7 +332,7 @@ class Segmenter:
     def __init__(self, config: SegmentationConfig, background: np.ndarray | None = None) -> None:
         self.config = config
         self._bg: np.ndarray | None = None
-        self._bg_f: np.ndarray | None = None
+        self._bg_blur: np.ndarray | None = None
         self._bg_chroma: np.ndarray | None = None
         self._bg_bright: np.ndarray | None = None
         self._model: cv2.BackgroundSubtractor | None = None
@@ -401,8 +401,8 @@ class Segmenter:
         """Use ``background`` (the empty scene) as the reference (static) or seed (mog2/knn)."""
         bg = _as_bgr(background, "background image")
         self._bg = bg
-        bgf = self._blurred(bg).astype(np.float32)
-        self._bg_f = bgf
+        self._bg_blur = self._blurred(bg)
+        bgf = self._bg_blur.astype(np.float32)
         s = bgf.sum(axis=2, keepdims=True) + _EPS
         self._bg_bright = s[..., 0]
         self._bg_chroma = bgf / s
@@ -441,38 +441,40 @@ class Segmenter:
 
     def _static_foreground(self, img: np.ndarray) -> np.ndarray:
         c = self.config
-        bg, bgf = self._bg, self._bg_f
-        assert bg is not None and bgf is not None
+        bg, bgb = self._bg, self._bg_blur
+        assert bg is not None and bgb is not None and self._bg_bright is not None
         if img.shape != bg.shape:
             raise SegmentationError(
                 f"frame size {img.shape[1]}x{img.shape[0]} differs from the background "
                 f"image's {bg.shape[1]}x{bg.shape[0]}"
             )
-        f = self._blurred(img).astype(np.float32)
-        ref = bgf
-        bright = f.sum(axis=2) + _EPS
+        f = self._blurred(img)
+        gain = 1.0
+        ref = bgb
         if c.global_gain:
-            gain = float(np.median(bright / self._bg_bright))
-            ref = bgf * gain
-        diff = np.abs(f - ref).max(axis=2)
+            # Median brightness ratio on a sparse grid: robust to the person (a minority).
+            fs = f[::4, ::4].astype(np.float32).sum(axis=2) + _EPS
+            gain = float(np.median(fs / self._bg_bright[::4, ::4]))
+            ref = cv2.convertScaleAbs(bgb, alpha=gain)
+        d = cv2.absdiff(f, ref)
+        b, g, r = cv2.split(d)
+        diff = cv2.max(cv2.max(b, g), r)
         fg = diff > c.threshold
-        if c.shadow_suppression and fg.any():
+        if c.shadow_suppression:
             # Only the candidate pixels need the shadow test.
             idx = np.flatnonzero(fg)
-            fb = bright.reshape(-1)[idx]
-            bb = self._bg_bright.reshape(-1)[idx]
-            if c.global_gain:
-                bb = bb * gain
-            ratio = fb / bb
-            fch = f.reshape(-1, 3)[idx] / fb[:, None]
-            bch = self._bg_chroma.reshape(-1, 3)[idx]
-            chroma = np.abs(fch - bch).max(axis=1)
-            shadow = (
-                (ratio >= c.shadow_min_ratio)
-                & (ratio <= c.shadow_max_ratio)
-                & (chroma <= c.shadow_chroma_tol)
-            )
-            fg.reshape(-1)[idx[shadow]] = False
+            if idx.size:
+                fpx = f.reshape(-1, 3)[idx].astype(np.float32)
+                fb = fpx.sum(axis=1) + _EPS
+                ratio = fb / (self._bg_bright.reshape(-1)[idx] * gain)
+                fch = fpx / fb[:, None]
+                chroma = np.abs(fch - self._bg_chroma.reshape(-1, 3)[idx]).max(axis=1)
+                shadow = (
+                    (ratio >= c.shadow_min_ratio)
+                    & (ratio <= c.shadow_max_ratio)
+                    & (chroma <= c.shadow_chroma_tol)
+                )
+                fg.reshape(-1)[idx[shadow]] = False
         return fg
 
     def clean(self, fg: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[Blob]]:
