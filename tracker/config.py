@@ -1,0 +1,329 @@
+"""Configuration of the tracker: filters, origin search, initialisation and lost-track logic.
+
+One tree of pydantic models, validated at the edge (``extra="forbid"``: an unknown key is an
+error). Angles are given in degrees and distances in metres, like the joint-limit tables of
+:mod:`tracker.dof`; the filters convert to radians internally. Motion magnitudes (interval widths,
+noise sigmas, search ranges) are stated for 20 Hz footage (``reference_dt_s = 0.05``) and scaled
+with the actual frame interval: widths and ranges linearly with ``dt / 0.05``, diffusion sigmas
+with ``sqrt(dt / 0.05)`` for the random-walk filters and linearly for IPF (as the method scales
+its intervals).
+
+Defaults follow issue 3: IPF with M = 81 kept particles, q = 3 grid values over an interval of
+10 degrees on the n = 4 "interesting" DOFs (both hips' and both knees' flexion), i.e. 6561
+particles per frame; the baselines (Condensation, annealed particle filter) get the same number of
+likelihood evaluations per frame.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from gaitwatch.errors import InputError
+from tracker.dof import DOF_NAMES, INTERESTING_DEFAULT, LIMIT_PROFILES, ROOT_DOFS
+
+FilterName = Literal["ipf", "apf", "condensation"]
+FILTER_NAMES: tuple[str, ...] = ("ipf", "apf", "condensation")
+
+
+class TrackerConfigError(InputError):
+    """A tracker configuration file or option that cannot be used."""
+
+
+def _default_sigmas() -> dict[str, float]:
+    """Per-DOF random-walk sigma for one 20 Hz frame: metres for root_x/y/z, degrees otherwise."""
+    s = {n: 2.0 for n in DOF_NAMES}
+    s.update({"root_x": 0.02, "root_y": 0.02, "root_z": 0.01})
+    s.update({"root_yaw": 3.0, "root_pitch": 1.5, "root_roll": 1.5})
+    s.update({"trunk_flexion": 1.5, "trunk_lateral": 1.0, "trunk_rotation": 1.5})
+    s.update({"neck_flexion": 1.5, "neck_rotation": 2.0})
+    for side in ("l", "r"):
+        s[f"{side}_shoulder_flexion"] = 4.0
+        s[f"{side}_shoulder_abduction"] = 2.0
+        s[f"{side}_shoulder_rotation"] = 2.0
+        s[f"{side}_elbow_flexion"] = 4.0
+        s[f"{side}_hip_flexion"] = 5.0
+        s[f"{side}_hip_abduction"] = 1.5
+        s[f"{side}_hip_rotation"] = 1.5
+        s[f"{side}_knee_flexion"] = 7.0
+        s[f"{side}_ankle_flexion"] = 4.0
+        s[f"{side}_ankle_rotation"] = 1.5
+    return s
+
+
+def _check_dof_keys(v: dict[str, float], what: str) -> dict[str, float]:
+    unknown = sorted(set(v) - set(DOF_NAMES))
+    if unknown:
+        raise ValueError(f"unknown DOF(s) in {what}: {', '.join(unknown)}")
+    for name, val in v.items():
+        if not val >= 0:
+            raise ValueError(f"{what}[{name}] must be >= 0, not {val}")
+    return v
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+class IPFConfig(_Model):
+    """Interval Particle Filtering (issue 3)."""
+
+    kept: Annotated[
+        int, Field(ge=1, le=100_000, description="M: heaviest distinct particles kept per frame")
+    ] = 81
+    q: Annotated[int, Field(ge=1, le=15, description="Grid values per interesting DOF")] = 3
+    interesting: Annotated[
+        tuple[str, ...],
+        Field(min_length=1, max_length=8, description="L: the DOFs explored on a grid"),
+    ] = INTERESTING_DEFAULT
+    interval_deg: Annotated[
+        float, Field(ge=0, le=180, description="Interval width per L DOF at 20 Hz, degrees")
+    ] = 10.0
+    interval_overrides_deg: Annotated[
+        dict[str, float], Field(description="Per-DOF interval width at 20 Hz, degrees")
+    ] = {}
+    sigma: Annotated[
+        dict[str, float],
+        Field(
+            description="White noise on R per DOF at 20 Hz (m or degrees); root DOFs are set "
+            "by the origin search and get no noise by default"
+        ),
+    ] = Field(
+        default_factory=lambda: {**_default_sigmas(), **{DOF_NAMES[i]: 0.0 for i in ROOT_DOFS}}
+    )
+    factored: Annotated[
+        bool,
+        Field(description="Use the likelihood's left/right-leg factorisation when L allows it"),
+    ] = True
+
+    @field_validator("interesting")
+    @classmethod
+    def _interesting_known(cls, v: tuple[str, ...]) -> tuple[str, ...]:
+        unknown = [n for n in v if n not in DOF_NAMES]
+        if unknown:
+            raise ValueError(f"unknown DOF(s): {', '.join(unknown)}")
+        if len(set(v)) != len(v):
+            raise ValueError("DOFs must be distinct")
+        return v
+
+    @field_validator("interval_overrides_deg")
+    @classmethod
+    def _overrides(cls, v: dict[str, float]) -> dict[str, float]:
+        return _check_dof_keys(v, "interval_overrides_deg")
+
+    @field_validator("sigma")
+    @classmethod
+    def _sigma(cls, v: dict[str, float]) -> dict[str, float]:
+        return _check_dof_keys(v, "sigma")
+
+    @property
+    def neighbours(self) -> int:
+        """I = q^n neighbours per kept particle."""
+        return self.q ** len(self.interesting)
+
+    @property
+    def evaluations(self) -> int:
+        """N = M * I likelihood evaluations per frame."""
+        return self.kept * self.neighbours
+
+
+class CondensationConfig(_Model):
+    """Condensation (Isard & Blake 1998): resample in proportion to weight, Gaussian diffusion."""
+
+    sigma: Annotated[
+        dict[str, float], Field(description="Diffusion sigma per DOF at 20 Hz (m or degrees)")
+    ] = Field(default_factory=_default_sigmas)
+    sigma_scale: Annotated[
+        float, Field(gt=0, le=100, description="Multiplier applied to every sigma")
+    ] = 1.0
+
+    @field_validator("sigma")
+    @classmethod
+    def _sigma(cls, v: dict[str, float]) -> dict[str, float]:
+        return _check_dof_keys(v, "sigma")
+
+
+class APFConfig(_Model):
+    """Annealed particle filter (Deutscher, Blake & Reid 2000)."""
+
+    layers: Annotated[int, Field(ge=1, le=50, description="Annealing layers per frame")] = 5
+    survival_rate: Annotated[
+        float,
+        Field(
+            gt=0,
+            lt=1,
+            description="Target particle survival rate alpha; sets each layer's "
+            "annealing exponent and shrinks the noise by sqrt(alpha) per layer",
+        ),
+    ] = 0.5
+    sigma: Annotated[
+        dict[str, float],
+        Field(description="First-layer diffusion sigma per DOF at 20 Hz (m or degrees)"),
+    ] = Field(default_factory=_default_sigmas)
+    sigma_scale: Annotated[float, Field(gt=0, le=100)] = 1.5
+
+    @field_validator("sigma")
+    @classmethod
+    def _sigma(cls, v: dict[str, float]) -> dict[str, float]:
+        return _check_dof_keys(v, "sigma")
+
+
+class OriginSearchConfig(_Model):
+    """Hierarchical search of the body origin, one dimension at a time (x, y, z, yaw, tilts)."""
+
+    enabled: bool = True
+    steps: Annotated[int, Field(ge=3, le=41, description="Grid values per dimension (odd)")] = 7
+    levels: Annotated[
+        int, Field(ge=1, le=6, description="Refinements per dimension (range shrinks)")
+    ] = 2
+    shrink: Annotated[float, Field(gt=0, lt=1, description="Range factor per refinement")] = 0.35
+    passes: Annotated[int, Field(ge=1, le=4, description="Sweeps over the dimensions")] = 1
+    range_xy_m: Annotated[float, Field(gt=0, le=2, description="+- range of x, y at 20 Hz")] = 0.12
+    range_z_m: Annotated[float, Field(ge=0, le=1, description="+- range of z at 20 Hz")] = 0.04
+    range_yaw_deg: Annotated[float, Field(ge=0, le=180)] = 12.0
+    range_tilt_deg: Annotated[float, Field(ge=0, le=90, description="pitch and roll")] = 5.0
+    velocity_damping: Annotated[
+        float,
+        Field(ge=0, le=1, description="Constant-velocity prediction of x, y: 0 off, 1 full"),
+    ] = 0.8
+
+
+class InitConfig(_Model):
+    """Exhaustive first-frame / re-initialisation search over plausible configurations."""
+
+    headings: Annotated[int, Field(ge=1, le=72, description="Headings over the circle")] = 16
+    position_step_m: Annotated[float, Field(gt=0, le=1)] = 0.15
+    position_radius_m: Annotated[
+        float,
+        Field(ge=0, le=3, description="Half-width of the x, y grid around the blob's floor point"),
+    ] = 0.30
+    walking_phases: Annotated[int, Field(ge=0, le=32)] = 8
+    seated: bool = True
+    refine_best: Annotated[
+        int, Field(ge=0, le=50, description="Best candidates refined by the origin search")
+    ] = 4
+    max_candidates: Annotated[int, Field(ge=10, le=1_000_000)] = 20_000
+
+
+class TrackerConfig(_Model):
+    """Everything the tracking pipeline needs besides cameras, footage and a seed."""
+
+    filter: FilterName = "ipf"
+    ipf: IPFConfig = Field(default_factory=IPFConfig)
+    apf: APFConfig = Field(default_factory=APFConfig)
+    condensation: CondensationConfig = Field(default_factory=CondensationConfig)
+    evaluations: Annotated[
+        int | None,
+        Field(
+            ge=1,
+            description="Likelihood evaluations per frame for the baselines "
+            "(default: the IPF's M * q^n)",
+        ),
+    ] = None
+    origin: OriginSearchConfig = Field(default_factory=OriginSearchConfig)
+    init: InitConfig = Field(default_factory=InitConfig)
+    limits_profile: Annotated[str, Field(description="tracker.dof limit profile")] = "walking"
+    limits_overrides_deg: dict[str, tuple[float, float]] = {}
+    reference_dt_s: Annotated[float, Field(gt=0, le=1)] = 0.05
+    likelihood_size: Annotated[
+        tuple[int, int], Field(description="Width, height of the likelihood images")
+    ] = (160, 120)
+    lost_weight: Annotated[
+        float, Field(ge=0, description="Best weight below this counts as a bad frame")
+    ] = 0.25
+    lost_frames: Annotated[
+        int, Field(ge=1, le=1000, description="Bad frames in a row before re-initialisation")
+    ] = 5
+    min_silhouette_px: Annotated[
+        int,
+        Field(
+            ge=0,
+            description="Fewer silhouette pixels (all cameras, likelihood "
+            "resolution) means nobody in view",
+        ),
+    ] = 30
+
+    @field_validator("limits_profile")
+    @classmethod
+    def _profile(cls, v: str) -> str:
+        if v not in LIMIT_PROFILES:
+            raise ValueError(f"unknown profile {v!r}; known: {', '.join(LIMIT_PROFILES)}")
+        return v
+
+    @field_validator("likelihood_size")
+    @classmethod
+    def _size(cls, v: tuple[int, int]) -> tuple[int, int]:
+        if not (8 <= v[0] <= 4096 and 8 <= v[1] <= 4096):
+            raise ValueError("width and height must be within 8..4096")
+        return v
+
+    @model_validator(mode="after")
+    def _limits_keys(self) -> TrackerConfig:
+        unknown = sorted(set(self.limits_overrides_deg) - set(DOF_NAMES))
+        if unknown:
+            raise ValueError(f"limits_overrides_deg: unknown DOF(s) {', '.join(unknown)}")
+        return self
+
+    @property
+    def evaluations_per_frame(self) -> int:
+        """Likelihood evaluations per frame of the body-part filter (all filters)."""
+        return self.evaluations if self.evaluations is not None else self.ipf.evaluations
+
+    def joint_limits(self):  # -> tracker.dof.JointLimits
+        from tracker.dof import JointLimits
+
+        lim = JointLimits.profile(self.limits_profile)
+        if self.limits_overrides_deg:
+            lim = lim.with_overrides(self.limits_overrides_deg)
+        return lim
+
+
+def _format(source: str, err: ValidationError) -> str:
+    parts = []
+    for e in err.errors():
+        loc = ".".join(str(p) for p in e["loc"]) or "(file)"
+        msg = "unknown key" if e["type"] == "extra_forbidden" else e["msg"]
+        parts.append(f"{loc}: {msg}")
+    return f"{source}: " + "; ".join(parts)
+
+
+def parse_tracker_config(data: Any, source: str = "<config>") -> TrackerConfig:
+    """Validate a parsed configuration mapping; raises :class:`TrackerConfigError`."""
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise TrackerConfigError(f"{source}: expected a mapping, got {type(data).__name__}")
+    try:
+        return TrackerConfig.model_validate(data)
+    except ValidationError as err:
+        raise TrackerConfigError(_format(source, err)) from None
+
+
+def load_tracker_config(path: str | Path) -> TrackerConfig:
+    """Load a TOML (``.toml``) or YAML (anything else) tracker configuration file."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise TrackerConfigError(f"{path}: no such file") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as err:
+        raise TrackerConfigError(f"{path}: cannot read ({err.__class__.__name__})") from None
+    if path.suffix.lower() == ".toml":
+        import tomllib
+
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as err:
+            raise TrackerConfigError(f"{path}: not valid TOML ({err})") from None
+    else:
+        import yaml
+
+        try:
+            data = yaml.safe_load(text)
+        except yaml.YAMLError as err:
+            raise TrackerConfigError(
+                f"{path}: not valid YAML ({str(err).splitlines()[0]})"
+            ) from None
+    return parse_tracker_config(data, str(path))

@@ -1,0 +1,145 @@
+"""Interval Particle Filtering (IPF), as issue 3 describes the method.
+
+Each frame:
+
+1. **Selection** — sort the previous particles by weight and keep the M heaviest *distinct* ones
+   (fewer distinct ones are cycled to keep M groups; their noise makes them differ).
+2. **Prediction** — split the DOFs into L, the n "interesting" ones (default both hips' and both
+   knees' flexion) and R, the rest. Each kept particle gets white Gaussian noise on R (one draw
+   per kept particle, shared by its group), then L is replaced by a deterministic grid of q values
+   per DOF inside an interval of width ``w * dt / 0.05`` around its value (shifted to lie inside
+   the joint limits, so the q values stay distinct and legal), giving I = q^n neighbours per kept
+   particle, N = M * I particles. Every particle is clamped to the joint limits.
+3. **Measure** — weigh every particle; the estimate is the heaviest.
+
+Structure exploited where exact: the I particles of a group share R, so they share the upper body
+and pelvis, and (when L holds only leg DOFs) the left-leg and right-leg variants combine
+independently — the likelihood's ``weights_factored(base (M,31), left (M,A,6), right (M,B,6))``
+weighs the A * B = I combinations of each group from A + B leg renderings. Otherwise
+``weights()`` weighs all N poses.
+
+Particle order: group m occupies rows ``m*I .. (m+1)*I - 1``; inside a group the grid index is the
+C-order product over L sorted as (left-leg DOFs, right-leg DOFs, others), i.e. ``a * B + b``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tracker.config import IPFConfig
+from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, ROOT_DOFS
+from tracker.filters.base import Filter, Likelihood, select_distinct, sigma_vector
+
+
+class IntervalParticleFilter(Filter):
+    """Interval Particle Filtering over the 31 pose DOFs (see the module docstring)."""
+
+    name = "ipf"
+
+    def __init__(
+        self,
+        config: IPFConfig | None = None,
+        *,
+        limits: tuple[np.ndarray, np.ndarray],
+        rng: np.random.Generator,
+        reference_dt: float = 0.05,
+    ) -> None:
+        super().__init__(limits=limits, rng=rng, reference_dt=reference_dt)
+        self.config = config or IPFConfig()
+        c = self.config
+        left = [DOF[n] for n in c.interesting if DOF[n] in LEFT_LEG]
+        right = [DOF[n] for n in c.interesting if DOF[n] in RIGHT_LEG]
+        other = [DOF[n] for n in c.interesting if DOF[n] not in LEFT_LEG + RIGHT_LEG]
+        #: L in grid order: left-leg DOFs, right-leg DOFs, others.
+        self.L = np.array(left + right + other, dtype=np.intp)
+        self.n_left, self.n_right, self.n_other = len(left), len(right), len(other)
+        self.R = np.array([i for i in range(N_DOF) if i not in set(self.L)], dtype=np.intp)
+        self.q = c.q
+        self.M = c.kept
+        self.I = c.q ** len(self.L)
+        widths = np.array(
+            [c.interval_overrides_deg.get(n, c.interval_deg) for n in self._names(self.L)]
+        )
+        self.widths = np.radians(widths)  # (n,) at the reference dt
+        sig = sigma_vector(c.sigma)
+        sig[self.L] = 0.0
+        self.sigma = sig
+        # (I, n) grid index of each neighbour, C order over L.
+        self.combos = np.stack(
+            np.unravel_index(np.arange(self.I), (self.q,) * len(self.L)), axis=1
+        ).astype(np.intp)
+        self.used_factored = False
+
+    @staticmethod
+    def _names(idx: np.ndarray) -> list[str]:
+        from tracker.dof import DOF_NAMES
+
+        return [DOF_NAMES[i] for i in idx]
+
+    @property
+    def evaluations_per_step(self) -> int:
+        return self.M * self.I
+
+    # -- steps ----------------------------------------------------------------------------
+    def select(self) -> np.ndarray:
+        """The M kept particles (M, 31): heaviest distinct first, cycled if fewer."""
+        idx = select_distinct(self.particles, self.weights, self.M)
+        if idx.size < self.M:
+            idx = np.resize(idx, self.M)
+        return self.particles[idx].copy()
+
+    def interval_values(self, centres: np.ndarray, dt: float) -> np.ndarray:
+        """Grid values (M, n, q) of the L DOFs around ``centres`` (M, n), inside the limits."""
+        w = self.widths * (dt / self.reference_dt)  # (n,)
+        lo, hi = self.low[self.L], self.high[self.L]
+        w = np.minimum(w, hi - lo)
+        offsets = np.linspace(-0.5, 0.5, self.q) if self.q > 1 else np.zeros(1)
+        start = np.clip(centres - w / 2, lo, hi - w)  # interval shifted inside the limits
+        vals = (start + w / 2)[:, :, None] + offsets[None, None, :] * w[None, :, None]
+        return np.clip(vals, lo[None, :, None], hi[None, :, None])
+
+    def predict(self, kept: np.ndarray, dt: float) -> np.ndarray:
+        """The N = M * I predicted particles (M * I, 31) from the kept ones (M, 31)."""
+        m = kept.shape[0]
+        base = self._diffuse(kept, self.sigma * (dt / self.reference_dt))
+        self.clamp(base)
+        vals = self.interval_values(base[:, self.L], dt)  # (M, n, q)
+        out = np.repeat(base[:, None, :], self.I, axis=1)  # (M, I, 31)
+        for k, dof in enumerate(self.L):
+            out[:, :, dof] = vals[:, k, self.combos[:, k]]
+        out = out.reshape(m * self.I, N_DOF)
+        return self.clamp(out)
+
+    def measure(self, likelihood: Likelihood, particles: np.ndarray) -> np.ndarray:
+        """Weights (M * I,) of the predicted particles, factored by legs where exact."""
+        factored = getattr(likelihood, "weights_factored", None)
+        self.used_factored = False
+        if (
+            self.config.factored
+            and factored is not None
+            and self.n_other == 0
+            and (self.n_left + self.n_right) > 0
+        ):
+            a, b = self.q**self.n_left, self.q**self.n_right
+            m = particles.shape[0] // self.I
+            grid = particles.reshape(m, a, b, N_DOF)
+            base = np.ascontiguousarray(grid[:, 0, 0, :])
+            left = np.ascontiguousarray(grid[:, :, 0, :][:, :, list(LEFT_LEG)])
+            right = np.ascontiguousarray(grid[:, 0, :, :][:, :, list(RIGHT_LEG)])
+            w = np.asarray(factored(base, left, right), dtype=np.float64)
+            if w.shape != (m, a, b):
+                raise ValueError(f"weights_factored returned {w.shape}, expected {(m, a, b)}")
+            self.last_evaluations += m * a * b
+            self.used_factored = True
+            return w.reshape(m * a * b)
+        return self._weigh(likelihood, particles)
+
+    def _step(self, likelihood: Likelihood, dt: float) -> None:
+        self.last_evaluations = 0
+        kept = self.select()
+        particles = self.predict(kept, dt)
+        self.weights = self.measure(likelihood, particles)
+        self.particles = particles
+
+
+__all__ = ["IntervalParticleFilter", "ROOT_DOFS"]
