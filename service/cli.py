@@ -19,7 +19,10 @@ from gaitwatch.errors import InputError
 log = logging.getLogger("gaitwatch")
 
 # Order is the order of ``gaitwatch --help``.
-COMMAND_MODULES: tuple[str, ...] = ("service.commands.demo",)
+COMMAND_MODULES: tuple[str, ...] = (
+    "service.commands.demo",
+    "service.commands.export",
+)
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILURE = 1
