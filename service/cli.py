@@ -22,6 +22,7 @@ log = logging.getLogger("gaitwatch")
 COMMAND_MODULES: tuple[str, ...] = (
     "service.commands.demo",
     "service.commands.export",
+    "service.commands.camera",
 )
 
 EXIT_BAD_INPUT = 2
