@@ -609,7 +609,7 @@ class PoseLogWriter:
         self._last_frame: int | None = None
         self._last_time: float | None = None
         self._since_flush = 0
-        self._next_tf_ns = self.start_time_ns
+        self._next_tf_ns = self.start_time_ns + _NS
         self._closed = False
 
         meta = {
@@ -721,8 +721,7 @@ class PoseLogWriter:
         if log_time >= self._next_tf_ns:
             # Repeat the camera poses once per second of log time so Foxglove shows them after
             # a seek (the first ones are written at start).
-            if log_time > self.start_time_ns:
-                self._write_cameras(log_time)
+            self._write_cameras(log_time)
             self._next_tf_ns = log_time + _NS
         self._since_flush += 1
         if self._since_flush >= self.flush_every:
