@@ -23,6 +23,10 @@ COMMAND_MODULES: tuple[str, ...] = (
     "service.commands.demo",
     "service.commands.export",
     "service.commands.camera",
+    "service.commands.residents",
+    "service.commands.apikey",
+    "service.commands.db",
+    "service.commands.serve",
 )
 
 EXIT_BAD_INPUT = 2

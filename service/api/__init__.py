@@ -1,0 +1,1 @@
+"""The caregivers' REST API (FastAPI): ``create_app`` in ``service.api.app``."""

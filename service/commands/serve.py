@@ -1,0 +1,47 @@
+"""``gaitwatch serve``: run the REST API with uvicorn (settings from ``GAITWATCH_*``)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+
+from service.commands._dbcommon import add_db_option
+
+log = logging.getLogger(__name__)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("serve", help="run the caregivers' REST API")
+    p.add_argument("--host", help="listen address (default: $GAITWATCH_HOST or 127.0.0.1)")
+    p.add_argument("--port", type=int, help="TCP port (default: $GAITWATCH_PORT or 8000)")
+    add_db_option(p)
+    p.add_argument(
+        "--upgrade",
+        action="store_true",
+        default=None,
+        help="upgrade an out-of-date schema first (after a backup copy) instead of refusing",
+    )
+    p.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"])
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import uvicorn
+
+    from service.api.app import create_app
+    from service.config import load_settings
+
+    settings = load_settings(
+        host=args.host, port=args.port, database_url=args.db, auto_upgrade=args.upgrade
+    )
+    app = create_app(settings)  # refuses an out-of-date schema with a clear error
+    log.info("serving on http://%s:%d", settings.host, settings.port)
+    uvicorn.run(
+        app,
+        host=settings.host,
+        port=settings.port,
+        log_level=args.log_level,
+        access_log=False,
+        proxy_headers=False,
+    )
+    return 0

@@ -1,0 +1,1 @@
+"""Storage: the schema, sessions, ingest of gait results, aggregates, baselines, alerts, erasure."""
