@@ -21,9 +21,10 @@ settings, frame rate and software version (written first, so a file cut short ke
 
 Crash safety: the writer is a context manager whose ``__exit__`` finalises the file (summary and
 index) also when the ``with`` body raises. The writer closes a compressed chunk and flushes it to
-the operating system every ``flush_every`` frames, so a process killed outright loses at most that
-many frames; :func:`read_poselog` reads a file without summary (or cut at any byte) by a
-sequential scan up to the last whole record and sets :attr:`PoseLog.truncated`.
+the operating system every ``flush_every`` frames or ``flush_interval_s`` seconds, whichever comes
+first, so a process killed outright loses at most that much. :func:`read_poselog` reads a file
+without summary (or cut at any byte) by a sequential scan up to the last whole record and sets
+:attr:`PoseLog.truncated`.
 """
 
 from __future__ import annotations
@@ -542,8 +543,9 @@ class PoseLogWriter:
 
     Use it as a context manager: ``__exit__`` finalises the file (summary and index) whether the
     ``with`` body ends normally or raises, and records how it ended in the ``gaitwatch.end``
-    metadata. Memory does not grow with the number of frames beyond the MCAP chunk index (about
-    one small record per ``flush_every`` frames).
+    metadata. Memory does not grow with the number of frames beyond MCAP's chunk index (under
+    1 kB per chunk; a chunk is closed every ``flush_every`` frames or ``flush_interval_s``
+    seconds).
 
     Parameters
     ----------
@@ -567,6 +569,9 @@ class PoseLogWriter:
     flush_every : int
         Close the compressed chunk and flush it to the operating system every this many frames
         (pose or no-pose), bounding what a killed process loses.
+    flush_interval_s : float or None
+        Also flush when this many seconds of wall-clock time have passed since the last flush
+        (None: by frame count only, which makes the chunk layout reproducible).
     chunk_size : int
         Upper bound of a chunk's uncompressed size in bytes.
 
@@ -589,7 +594,8 @@ class PoseLogWriter:
         software_version: str = gaitwatch.__version__,
         start_time_ns: int | None = None,
         fps: float | None = None,
-        flush_every: int = 20,
+        flush_every: int = 100,
+        flush_interval_s: float | None = 2.0,
         chunk_size: int = 1024 * 1024,
     ) -> None:
         if flush_every < 1:
@@ -604,6 +610,8 @@ class PoseLogWriter:
         if self.start_time_ns < 0:
             raise ValueError(f"start_time_ns must be >= 0, not {start_time_ns}")
         self.flush_every = int(flush_every)
+        self.flush_interval_s = None if flush_interval_s is None else float(flush_interval_s)
+        self._last_flush = time.monotonic()
         self.n_pose = 0
         self.n_no_pose = 0
         self._last_frame: int | None = None
@@ -724,7 +732,10 @@ class PoseLogWriter:
             self._write_cameras(log_time)
             self._next_tf_ns = log_time + _NS
         self._since_flush += 1
-        if self._since_flush >= self.flush_every:
+        if self._since_flush >= self.flush_every or (
+            self.flush_interval_s is not None
+            and time.monotonic() - self._last_flush >= self.flush_interval_s
+        ):
             self.flush()
 
     def write_frame(
@@ -817,6 +828,7 @@ class PoseLogWriter:
             self._writer.flush()
         self._fh.flush()
         self._since_flush = 0
+        self._last_flush = time.monotonic()
 
     def close(self, error: str | None = None) -> None:
         """Finalise the file: end record, summary, index and footer. Idempotent.

@@ -72,6 +72,7 @@ def _write_log(
         start_time_ns=START_NS,
         fps=20.0,
         flush_every=flush_every,
+        flush_interval_s=None,  # chunk layout by frame count only: reproducible
     )
     frame = 3
     for i in range(n_frames):
