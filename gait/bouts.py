@@ -4,8 +4,9 @@ A walking bout is a run of consecutive straight strides (each stride overlaps or
 previous one, the walking direction turns less than ``max_turn_deg`` over each stride) with at
 least ``min_strides`` strides of either foot. Everything else is classified frame by frame from
 the posture: lying (trunk more than ``lying_trunk_deg`` from vertical, or head low), sitting
-(sacrum below ``sitting_height_fraction`` of its standing height), turning (standing or stepping
-with the facing direction turning faster than ``turn_rate_deg_s``), standing.
+(sacrum below ``sitting_height_fraction`` of its standing height), turning (upright with the
+facing direction turning faster than ``turn_rate_deg_s``), walking (upright, in a bout or with
+the sacrum moving faster than ``walking_speed_m_s``), standing.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gait.filtering import Prepared, fill_short_gaps, lowpass
-from gait.geometry import body_forward, heading_angle
+from gait.geometry import body_forward, heading_angle, sacrum_velocity
 from gait.kinematics import trunk_vector
 from gait.parameters import StrideCalc
 from gaitwatch.conventions import HEAD, SACRUM, side_index
@@ -34,6 +35,8 @@ class BoutSettings:
     lying_head_height_m: float = 0.5
     turn_rate_deg_s: float = 45.0
     min_activity_s: float = 0.3
+    walking_speed_m_s: float = 0.3
+    """Upright frames outside bouts with the sacrum faster than this are walking too."""
 
 
 def standing_height(prep: Prepared) -> float:
@@ -114,7 +117,11 @@ def posture_labels(
         rate = np.degrees(np.abs(np.gradient(a, 1.0 / prep.fps)))
     with np.errstate(invalid="ignore"):
         turning = upright & (rate > settings.turn_rate_deg_s)
+    speed = np.linalg.norm(sacrum_velocity(pos, prep.fps), axis=1)
+    with np.errstate(invalid="ignore"):
+        moving = upright & (speed > settings.walking_speed_m_s)
     labels[upright] = "standing"
+    labels[moving] = "walking"
     labels[turning] = "turning"
     labels[sitting & np.isfinite(sac)] = "sitting"
     labels[lying & (np.isfinite(sac) | np.isfinite(head))] = "lying"

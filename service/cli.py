@@ -22,6 +22,7 @@ log = logging.getLogger("gaitwatch")
 COMMAND_MODULES: tuple[str, ...] = (
     "service.commands.demo",
     "service.commands.export",
+    "service.commands.gait",
     "service.commands.camera",
     "service.commands.residents",
     "service.commands.apikey",
