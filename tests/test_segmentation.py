@@ -218,3 +218,26 @@ def test_seeded_adaptive_keeps_a_person_standing_still(rng: np.random.Generator,
     assert min(ious) > 0.8
     # ... and the room without the person is empty again.
     assert seg.apply(_frame(bg, None, rng)).empty
+
+
+@pytest.mark.parametrize("mode", ["static", "mog2"])
+def test_work_scale_gives_full_resolution_results(rng: np.random.Generator, mode: str) -> None:
+    bg = _background(rng)
+    a = _person_mask(cx=70)
+    b = _person_mask(cx=230, top=20)
+    cfg = SegmentationConfig(mode=mode, work_scale=0.5, blur=0)
+    seg = Segmenter(cfg, bg).apply(_frame(bg, a | b, rng, shadow=True))
+    assert seg.mask_full.shape == (H, W) and seg.labels.shape == (H, W)
+    assert seg.mask.shape == (120, 160)
+    assert _iou(seg.mask_full, a | b) > 0.82
+    assert len(seg.blobs) == 2
+    for blob in seg.blobs:
+        truth = a if blob.centroid[0] < W / 2 else b
+        ys, xs = np.nonzero(truth)
+        assert abs(blob.centroid[0] - xs.mean()) < 2 and abs(blob.centroid[1] - ys.mean()) < 2
+        assert blob.area == (seg.labels == blob.label).sum()
+        x, y, w, h = blob.bbox
+        assert abs(x - xs.min()) <= 2 and abs(x + w - 1 - xs.max()) <= 2
+        assert abs(y - ys.min()) <= 2 and abs(y + h - 1 - ys.max()) <= 2
+    only = keep_blobs(seg, [seg.blobs[0]])
+    assert only.mask_full.sum() == seg.blobs[0].area
