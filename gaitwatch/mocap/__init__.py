@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from gaitwatch.mocap.bvh import forward_kinematics, load_bvh, parse_bvh, read_bvh
 from gaitwatch.mocap.c3d import load_c3d, read_c3d_markers
 from gaitwatch.mocap.common import MocapFormatError, align_walking_to_x
 from gaitwatch.mocap.mapping import MarkerMapOptions, markers_to_trajectory
@@ -25,12 +26,16 @@ __all__ = [
     "MarkerMapOptions",
     "MocapFormatError",
     "align_walking_to_x",
+    "forward_kinematics",
+    "load_bvh",
     "grf_contact_events",
     "load_c3d",
     "load_mocap",
     "load_trc",
     "load_trc_with_grf",
     "markers_to_trajectory",
+    "parse_bvh",
+    "read_bvh",
     "read_c3d_markers",
     "read_mot",
     "read_mot_table",
@@ -59,6 +64,8 @@ def load_mocap(path: str | Path, **kw) -> Trajectory:
         return load_c3d(path, **kw)
     if ext == ".trc":
         return load_trc(path, **kw)
+    if ext == ".bvh":
+        return load_bvh(path, **kw)
     raise MocapFormatError(
         f"{path}: unknown motion-capture format {ext!r} (expected .c3d, .trc or .bvh)"
     )

@@ -205,15 +205,39 @@ def lower_to_sole(
     return marker + drop * down, drop
 
 
-def _sagittal_basis(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """e1 = unit(b - a) and the unit vector perpendicular to it, in the vertical plane, pointing
-    down (NaN where undefined)."""
+def _sagittal_basis(
+    a: np.ndarray, b: np.ndarray, right: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """e1 = unit(b - a) and the unit vector perpendicular to it in the sagittal plane, pointing
+    down when e1 is near horizontal (NaN where undefined).
+
+    With ``right`` (the subject's right direction, shape (T, 3)) the sagittal plane is the
+    plane normal to it, which stays defined when the foot points straight down (toe off and
+    swing); without it the vertical plane through e1 is used.
+    """
+    if right is not None:
+        r = unit(right)
+        ok = np.isfinite(r).all(axis=-1)
+        if ok.any():
+            v = b - a
+            v = v - np.sum(v * r, axis=-1, keepdims=True) * r
+            e1 = unit(v)
+            p = unit(np.cross(e1, r))
+            e1f, pf = _sagittal_basis(a, b)
+            e1 = np.where(ok[..., None], e1, e1f)
+            p = np.where(ok[..., None], p, pf)
+            return e1, p
     e1 = unit(b - a)
     p = unit(-Z - np.sum(-Z * e1, axis=-1, keepdims=True) * e1)
     return e1, p
 
 
-def heel_from_ankle_toe(ankle: np.ndarray, toe: np.ndarray, back_ratio: float = 0.45) -> np.ndarray:
+def heel_from_ankle_toe(
+    ankle: np.ndarray,
+    toe: np.ndarray,
+    back_ratio: float = 0.45,
+    right: np.ndarray | None = None,
+) -> np.ndarray:
     """The back of the heel at the sole, from the ankle centre and the toe point on the sole.
 
     A sagittal foot model: with the foot flat, the ankle centre is ``h`` above the floor and
@@ -228,6 +252,12 @@ def heel_from_ankle_toe(ankle: np.ndarray, toe: np.ndarray, back_ratio: float = 
     ankle, toe : ndarray, shape (T, 3)
         Ankle centre and toe point (on the sole), metres, floor at z = 0.
     back_ratio : float
+    right : ndarray, shape (T, 3), optional
+        The subject's right direction (e.g. left hip -> right hip): the foot then moves in the
+        plane normal to it (see ``_sagittal_basis``); the vertical plane otherwise.
+    right : ndarray, shape (T, 3), optional
+        The subject's right direction (e.g. left hip -> right hip): the foot then moves in the
+        plane normal to it (see ``_sagittal_basis``); the vertical plane otherwise.
 
     Returns
     -------
@@ -243,7 +273,7 @@ def heel_from_ankle_toe(ankle: np.ndarray, toe: np.ndarray, back_ratio: float = 
     b = back_ratio * d
     c1 = (-b * d + h * h) / n
     c2 = (b * h + h * d) / n
-    e1, p = _sagittal_basis(ankle, toe)
+    e1, p = _sagittal_basis(ankle, toe, right)
     heel = ankle + c1 * e1 + c2 * p
     # The ankle's lowest height is reached with the heel on the floor but not exactly with the
     # foot flat; correct c2 once so the heel's own low percentile sits on the floor.
@@ -255,7 +285,11 @@ def heel_from_ankle_toe(ankle: np.ndarray, toe: np.ndarray, back_ratio: float = 
 
 
 def ankle_from_heel_toe(
-    heel: np.ndarray, toe: np.ndarray, forward_ratio: float = 0.3, height_ratio: float = 0.4
+    heel: np.ndarray,
+    toe: np.ndarray,
+    forward_ratio: float = 0.3,
+    height_ratio: float = 0.4,
+    right: np.ndarray | None = None,
 ) -> np.ndarray:
     """Approximate ankle centre from heel and toe points on the sole (no malleolus markers).
 
@@ -263,5 +297,5 @@ def ankle_from_heel_toe(
     ``height_ratio`` of it above the sole line, in the vertical plane containing that line.
     """
     n = nanmedian_scalar(np.linalg.norm(toe - heel, axis=-1))
-    e1, p = _sagittal_basis(heel, toe)
+    e1, p = _sagittal_basis(heel, toe, right)
     return heel + forward_ratio * n * e1 - height_ratio * n * p

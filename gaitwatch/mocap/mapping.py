@@ -293,13 +293,15 @@ def roles_to_keypoints(
         if f"{side}_ankle" not in methods and hee is not None and toe_kp is not None:
             put(
                 f"{side}_ankle",
-                jc.ankle_from_heel_toe(P[:, KP[f"{side}_heel"]], toe_kp),
+                jc.ankle_from_heel_toe(P[:, KP[f"{side}_heel"]], toe_kp, right=right_axis),
                 "foot model from heel and toe (no malleolus markers)",
             )
         if f"{side}_heel" not in methods and f"{side}_ankle" in methods and toe_kp is not None:
             put(
                 f"{side}_heel",
-                jc.heel_from_ankle_toe(P[:, KP[f"{side}_ankle"]], toe_kp, o.heel_back_ratio),
+                jc.heel_from_ankle_toe(
+                    P[:, KP[f"{side}_ankle"]], toe_kp, o.heel_back_ratio, right_axis
+                ),
                 "foot model from ankle centre and toe (no heel marker)",
             )
 
