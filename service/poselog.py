@@ -100,7 +100,9 @@ class PoseLogError(InputError):
 # published schemas (foxglove-sdk/schemas/jsonschema); Foxglove recognises them by name.
 # ---------------------------------------------------------------------------------------------
 _NUM: Final[dict] = {"type": "number"}
-_NUM_OR_NULL: Final[dict] = {"type": ["number", "null"]}
+# Foxglove's JSON-schema parser accepts one "type" per field (no ["number", "null"] unions), so
+# values that may be unknown are declared as numbers and written as null when unknown.
+_NUM_OR_NULL: Final[dict] = {"type": "number", "description": "null when unknown"}
 _TIME: Final[dict] = {
     "type": "object",
     "title": "time",
@@ -176,7 +178,8 @@ _LINE: Final[dict] = {
         "indices",
     ],
 }
-_ANY_OBJECTS: Final[dict] = {"type": "array", "items": {"type": "object"}}
+# Primitive arrays the skeleton leaves empty. Foxglove needs "properties" on every object schema.
+_ANY_OBJECTS: Final[dict] = {"type": "array", "items": {"type": "object", "properties": {}}}
 
 SCENE_UPDATE_SCHEMA: Final[dict] = {
     "title": SCHEMA_SCENE_UPDATE,

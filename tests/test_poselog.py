@@ -382,6 +382,17 @@ def test_channels_and_schemas(written: tuple[Path, Recorded]) -> None:
         assert json.loads(schema.data)["title"] == schema_name
 
 
+def _null_to_zero(value: object) -> object:
+    """Unknown numbers are written as null (the schemas declare them as numbers)."""
+    if value is None:
+        return 0.0
+    if isinstance(value, list):
+        return [_null_to_zero(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _null_to_zero(v) for k, v in value.items()}
+    return value
+
+
 def test_messages_validate_against_their_schemas(written: tuple[Path, Recorded]) -> None:
     jsonschema = pytest.importorskip("jsonschema")
     path, _ = written
@@ -389,14 +400,60 @@ def test_messages_validate_against_their_schemas(written: tuple[Path, Recorded])
         reader = make_reader(fh)
         seen = set()
         validators = {}
+        n_null = 0
         for schema, channel, message in reader.iter_messages():
             assert schema is not None
             if schema.id not in validators:
                 spec = json.loads(schema.data)
                 validators[schema.id] = jsonschema.validators.validator_for(spec)(spec)
-            validators[schema.id].validate(json.loads(message.data))
+            msg = json.loads(message.data)
+            n_null += msg != _null_to_zero(msg)
+            validators[schema.id].validate(_null_to_zero(msg))
             seen.add(channel.topic)
     assert len(seen) == 6
+    assert n_null == 1  # the one pose with an unknown key point
+
+
+_FOXGLOVE_SCALARS = {"boolean", "string", "number", "integer"}
+
+
+def _check_foxglove_parsable(schema: dict, where: str) -> int:
+    """The rules of Foxglove's JSON-schema parser (foxglove/studio, packages/mcap-support,
+    parseJsonSchema.ts): objects need "type": "object" and "properties"; each field is a single
+    scalar type, an object, an array whose items are a scalar or an object, or a "oneOf" of
+    numeric constants. Returns the number of fields checked."""
+    assert schema.get("type") == "object", f"{where}: type must be 'object'"
+    assert isinstance(schema.get("properties"), dict), f"{where}: object without properties"
+    n = 0
+    for name, field in schema["properties"].items():
+        here = f"{where}.{name}"
+        n += 1
+        if "oneOf" in field:
+            assert all(isinstance(alt.get("const"), int) for alt in field["oneOf"]), here
+            continue
+        kind = field.get("type")
+        assert isinstance(kind, str), f"{here}: one type per field, not {kind!r}"
+        if kind == "object":
+            n += _check_foxglove_parsable(field, here)
+        elif kind == "array":
+            item_kind = field["items"].get("type")
+            assert isinstance(item_kind, str), f"{here}[]: one item type, not {item_kind!r}"
+            if item_kind == "object":
+                n += _check_foxglove_parsable(field["items"], here + "[]")
+            else:
+                assert item_kind in _FOXGLOVE_SCALARS, f"{here}[]: {item_kind!r}"
+        else:
+            assert kind in _FOXGLOVE_SCALARS, f"{here}: {kind!r}"
+    return n
+
+
+def test_schemas_parse_in_foxglove(written: tuple[Path, Recorded]) -> None:
+    path, _ = written
+    with path.open("rb") as fh:
+        summary = make_reader(fh).get_summary()
+    assert summary is not None
+    for schema in summary.schemas.values():
+        assert _check_foxglove_parsable(json.loads(schema.data), schema.name) >= 3
 
 
 def test_skeleton_scene_update(written: tuple[Path, Recorded]) -> None:
