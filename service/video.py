@@ -28,8 +28,10 @@ Videos of different lengths
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
+import os
 import re
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -43,6 +45,29 @@ from gaitwatch.errors import InputError
 from tracker.camera import Camera, CameraFileError, check_image_size
 
 log = logging.getLogger(__name__)
+
+# FFmpeg prints its own diagnostics of a corrupt file on stderr, around our one-line error.
+# Quiet by default (read when OpenCV first loads FFmpeg); set OPENCV_FFMPEG_LOGLEVEL=24 to see
+# them.
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
+
+
+@contextlib.contextmanager
+def _quiet_opencv() -> Iterator[None]:
+    """Silence OpenCV's own warnings (e.g. on a file it cannot open) for the duration."""
+    try:
+        from cv2.utils import logging as cvlog
+
+        old = cvlog.getLogLevel()
+        cvlog.setLogLevel(cvlog.LOG_LEVEL_ERROR)
+    except (ImportError, AttributeError):  # pragma: no cover - older OpenCV builds
+        yield
+        return
+    try:
+        yield
+    finally:
+        cvlog.setLogLevel(old)
+
 
 IMAGE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg"})
 # A read that fails earlier than this many frames before the container's announced frame
@@ -167,7 +192,8 @@ class VideoFileSource(FrameSource):
             raise VideoError(f"{self.path}: no such file")
         if not self.path.is_file():
             raise VideoError(f"{self.path}: not a file")
-        cap = cv2.VideoCapture(str(self.path), cv2.CAP_FFMPEG)
+        with _quiet_opencv():
+            cap = cv2.VideoCapture(str(self.path), cv2.CAP_FFMPEG)
         if not cap.isOpened():
             cap.release()
             raise VideoError(
