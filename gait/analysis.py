@@ -20,7 +20,7 @@ from gait.balance import centre_of_mass, extrapolated_com, margins_at
 from gait.bouts import BoutSettings, activity_segments, group_bouts, posture_labels, standing_height
 from gait.events import EventSettings, GaitEvent, detect_events
 from gait.falls import FallSettings, detect_falls
-from gait.filtering import Prepared, prepare
+from gait.filtering import Prepared, prepare, quiet_nanmean
 from gait.geometry import heading, heading_angle
 from gait.kinematics import hip_flexion, knee_flexion, stride_curve, trunk_lean
 from gait.parameters import StrideCalc, StrideSettings, compute_strides, summarise
@@ -117,13 +117,7 @@ def _kin_summary(
         cs = [kin[id(s)][key] for s in strides if s.side == side]
         if not curves or not cs:
             return None
-        arr = np.asarray(cs)
-        with np.errstate(all="ignore"):
-            import warnings
-
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)
-                mean = np.nanmean(arr, axis=0)
+        mean = quiet_nanmean(np.asarray(cs), axis=0)
         return [round(float(v), 2) if np.isfinite(v) else None for v in mean]
 
     ap = ang.trunk_ap[sel]

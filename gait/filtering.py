@@ -8,6 +8,7 @@ recording into separately filtered pieces.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -66,6 +67,13 @@ class Prepared:
     @property
     def n(self) -> int:
         return int(self.times.shape[0])
+
+
+def quiet_nanmean(x: np.ndarray, axis: int | None = None) -> np.ndarray:
+    """``np.nanmean`` without the warning for all-NaN slices (which give NaN)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanmean(x, axis=axis)
 
 
 def uniform_grid(traj: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
@@ -211,7 +219,7 @@ def repair_swaps(positions: np.ndarray, ratio: float = 0.5, min_jump_m: float = 
     rgt = p[:, _LEG["right"]]
     with np.errstate(invalid="ignore"):
         same = (
-            np.nanmean(
+            quiet_nanmean(
                 np.linalg.norm(lft[1:] - lft[:-1], axis=-1)
                 + np.linalg.norm(rgt[1:] - rgt[:-1], axis=-1),
                 axis=1,
@@ -219,7 +227,7 @@ def repair_swaps(positions: np.ndarray, ratio: float = 0.5, min_jump_m: float = 
             / 2
         )
         cross = (
-            np.nanmean(
+            quiet_nanmean(
                 np.linalg.norm(lft[1:] - rgt[:-1], axis=-1)
                 + np.linalg.norm(rgt[1:] - lft[:-1], axis=-1),
                 axis=1,

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gait.filtering import fill_short_gaps, lowpass
+from gait.filtering import fill_short_gaps, lowpass, quiet_nanmean
 from gaitwatch.conventions import L_HIP, L_SHOULDER, R_HIP, R_SHOULDER, SACRUM
 
 UP = np.array([0.0, 0.0, 1.0])
@@ -43,7 +43,7 @@ def body_forward(positions: np.ndarray) -> np.ndarray:
     shoulders = positions[:, L_SHOULDER] - positions[:, R_SHOULDER]
     lines = np.stack([unit(horizontal(hips)), unit(horizontal(shoulders))])
     with np.errstate(invalid="ignore"):
-        lateral = np.nanmean(lines, axis=0) if np.isfinite(lines).any() else lines[0]
+        lateral = quiet_nanmean(lines, axis=0)
     fwd = np.cross(lateral, UP)
     return unit(horizontal(fwd))
 
