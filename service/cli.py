@@ -28,6 +28,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "service.commands.apikey",
     "service.commands.db",
     "service.commands.serve",
+    "service.commands.simulate",
 )
 
 EXIT_BAD_INPUT = 2
