@@ -106,6 +106,50 @@ def test_heel_from_ankle_toe_flat_foot_and_rigid_roll():
     assert np.allclose(heel, roll(-0.21, 0.0), atol=1e-9)
 
 
+def _hinge_walk(noise_m: float, rng: np.random.Generator, T: int = 200):
+    """Thigh and shank clusters swinging about a knee hinge (axis y) that travels along x."""
+    knee = np.column_stack([np.linspace(0, 2, T), np.zeros(T), np.full(T, 0.5)])
+    ph = np.linspace(0, 12, T)
+    a = np.radians(10 + 25 * np.sin(ph))  # thigh
+    b = a - np.radians(35 + 30 * np.sin(ph + 1))  # shank
+
+    def Ry(x):
+        c, s = np.cos(x), np.sin(x)
+        R = np.zeros((len(x), 3, 3))
+        R[:, 0, 0], R[:, 0, 2], R[:, 1, 1], R[:, 2, 0], R[:, 2, 2] = c, s, 1, -s, c
+        return R
+
+    # Clusters on the lateral (+y) side, as on real thighs and shanks.
+    th_local = np.array(
+        [[0.03, 0.08, 0.15], [-0.03, 0.09, 0.2], [0.0, 0.1, 0.25], [0.02, 0.07, 0.1]]
+    )
+    sh_local = np.array([[0.03, 0.08, -0.15], [-0.03, 0.09, -0.2], [0.0, 0.1, -0.25]])
+    th = knee[:, None] + np.einsum("tij,mj->tmi", Ry(a), th_local)
+    sh = knee[:, None] + np.einsum("tij,mj->tmi", Ry(b), sh_local)
+    th += rng.normal(0, noise_m, th.shape)
+    sh += rng.normal(0, noise_m, sh.shape)
+    th[5, 1] = np.nan  # one marker missing in one frame: the pose still fits
+    hip = knee + np.einsum("tij,j->ti", Ry(a), [0, 0, 0.42])
+    ankle = knee + np.einsum("tij,j->ti", Ry(b), [0, 0, -0.42])
+    return knee, th, sh, hip, ankle
+
+
+@pytest.mark.parametrize(("noise_m", "tol_m"), [(0.0, 1e-6), (0.001, 0.012)])
+def test_functional_knee_from_clusters(noise_m, tol_m):
+    knee, th, sh, hip, ankle = _hinge_walk(noise_m, np.random.default_rng(3))
+    R1, t1, ok1 = jc.segment_poses(th)
+    R2, t2, ok2 = jc.segment_poses(sh)
+    assert ok1.all() and ok2.all()
+    # The fitted poses reproduce the markers.
+    ref = th[0] - th[0].mean(axis=0)
+    fit = np.einsum("tij,mj->tmi", R1, ref) + t1[:, None]
+    assert np.nanmax(np.abs(fit - th)) < 1e-9 + 5 * noise_m
+    _, _, sv = jc.score_centre(R1, t1, R2, t2)
+    assert sv[5] < 0.2 * sv[4]  # a hinge: the position along the axis is (nearly) free
+    est = jc.hinge_centre(R1, t1, R2, t2, hip, ankle)
+    assert np.max(np.linalg.norm(est - knee, axis=1)) < tol_m
+
+
 @pytest.mark.parametrize(
     ("label", "context", "expected"),
     [

@@ -299,3 +299,133 @@ def ankle_from_heel_toe(
     n = nanmedian_scalar(np.linalg.norm(toe - heel, axis=-1))
     e1, p = _sagittal_basis(heel, toe, right)
     return heel + forward_ratio * n * e1 - height_ratio * n * p
+
+
+def segment_poses(cluster: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rigid poses of a marker cluster over time (least-squares fit, Kabsch/SVD, all frames at
+    once), relative to its shape in the first frame where every marker is present.
+
+    Parameters
+    ----------
+    cluster : ndarray, shape (T, M, 3)
+        M >= 3 markers on one segment, NaN where missing.
+
+    Returns
+    -------
+    R : ndarray, shape (T, 3, 3)
+    t : ndarray, shape (T, 3)
+        ``x_world = R @ x_ref + t`` for a point ``x_ref`` in the reference frame (the cluster
+        centred on its centroid in the reference frame). NaN in frames with fewer than three
+        markers.
+    ok : ndarray of bool, shape (T,)
+    """
+    cluster = np.asarray(cluster, float)
+    T, M, _ = cluster.shape
+    seen = np.isfinite(cluster).all(axis=-1)  # (T, M)
+    full = np.flatnonzero(seen.all(axis=1))
+    R = np.full((T, 3, 3), np.nan)
+    t = np.full((T, 3), np.nan)
+    if M < 3 or full.size == 0:
+        return R, t, np.zeros(T, bool)
+    ref = cluster[full[0]] - cluster[full[0]].mean(axis=0)  # (M, 3)
+    w = seen.astype(float)
+    n = w.sum(axis=1)
+    ok = n >= 3
+    X = np.where(seen[..., None], cluster, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cur_c = (w[..., None] * X).sum(axis=1) / n[:, None]
+        ref_c = (w[..., None] * ref[None]).sum(axis=1) / n[:, None]
+    A = ref[None] - ref_c[:, None]
+    B = X - cur_c[:, None]
+    H = np.einsum("tm,tmi,tmj->tij", w, A, B)
+    H[~ok] = np.eye(3)
+    U, _, Vt = np.linalg.svd(H)
+    d = np.sign(np.linalg.det(np.swapaxes(Vt, 1, 2) @ np.swapaxes(U, 1, 2)))
+    D = np.zeros((T, 3, 3))
+    D[:, 0, 0] = 1.0
+    D[:, 1, 1] = 1.0
+    D[:, 2, 2] = d
+    Rt = np.swapaxes(Vt, 1, 2) @ D @ np.swapaxes(U, 1, 2)
+    R[ok] = Rt[ok]
+    t[ok] = cur_c[ok] - np.einsum("tij,tj->ti", Rt[ok], ref_c[ok])
+    return R, t, ok
+
+
+def score_centre(
+    R1: np.ndarray, t1: np.ndarray, R2: np.ndarray, t2: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centre of rotation between two segments by SCoRE (Ehrig et al. 2006, J Biomech 39:2798).
+
+    Solves ``R1 c1 + t1 = R2 c2 + t2`` in the least-squares sense over all frames where both
+    poses are known, for the constant local points c1, c2.
+
+    Returns
+    -------
+    c1, c2 : ndarray, shape (3,)
+        The centre in each segment's reference frame (minimum-norm solution: for a hinge the
+        position along the axis is not determined by the motion).
+    sv : ndarray, shape (6,)
+        Singular values of the system, descending; ``sv[5] / sv[4]`` small means a hinge, whose
+        axis is the last right singular vector (see :func:`hinge_centre`).
+    """
+    ok = np.isfinite(R1).all(axis=(1, 2)) & np.isfinite(R2).all(axis=(1, 2))
+    A = np.concatenate([R1[ok], -R2[ok]], axis=2).reshape(-1, 6)
+    b = (t2[ok] - t1[ok]).reshape(-1)
+    if A.shape[0] < 12:
+        return np.full(3, np.nan), np.full(3, np.nan), np.full(6, np.nan)
+    x, *_ = np.linalg.lstsq(A, b, rcond=None)
+    sv = np.linalg.svd(A, compute_uv=False)
+    return x[:3], x[3:], sv
+
+
+def hinge_centre(
+    R1: np.ndarray,
+    t1: np.ndarray,
+    R2: np.ndarray,
+    t2: np.ndarray,
+    proximal: np.ndarray,
+    distal: np.ndarray,
+) -> np.ndarray:
+    """Centre of a hinge joint (the knee) from two marker clusters, in world coordinates.
+
+    SCoRE gives a point on the flexion axis and the axis (SARA-like: the null direction of the
+    SCoRE system, Ehrig et al. 2007); the position along the axis, which the motion does not
+    determine, is chosen where the axis passes closest to the line from the proximal to the
+    distal joint centre (hip to ankle: the mechanical axis of the leg), median over frames.
+
+    Parameters
+    ----------
+    R1, t1, R2, t2 : ndarrays
+        Poses of the proximal (thigh) and distal (shank) clusters, see :func:`segment_poses`.
+    proximal, distal : ndarray, shape (T, 3)
+        Hip and ankle centres.
+
+    Returns
+    -------
+    ndarray, shape (T, 3)
+        NaN where the thigh pose is unknown.
+    """
+    ok = np.isfinite(R1).all(axis=(1, 2)) & np.isfinite(R2).all(axis=(1, 2))
+    A = np.concatenate([R1[ok], -R2[ok]], axis=2).reshape(-1, 6)
+    b = (t2[ok] - t1[ok]).reshape(-1)
+    T = len(R1)
+    if A.shape[0] < 12:
+        return np.full((T, 3), np.nan)
+    x, *_ = np.linalg.lstsq(A, b, rcond=None)
+    _, _, Vt = np.linalg.svd(A, full_matrices=False)
+    u1 = Vt[-1, :3]
+    u1 = u1 / np.linalg.norm(u1)
+    c1 = x[:3]
+    k0 = np.einsum("tij,j->ti", R1, c1) + t1  # a point on the axis, per frame
+    u = np.einsum("tij,j->ti", R1, u1)  # axis direction
+    d = unit(distal - proximal)
+    # Closest point on the axis line to the hip-ankle line: minimise |k0 + s u - (p + r d)|.
+    w0 = k0 - proximal
+    a, bb, c = np.sum(u * u, -1), np.sum(u * d, -1), np.sum(d * d, -1)
+    dd, e = np.sum(u * w0, -1), np.sum(d * w0, -1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s = (bb * e - c * dd) / (a * c - bb * bb)
+    s_med = nanmedian_scalar(s)
+    if not np.isfinite(s_med):
+        return np.full((T, 3), np.nan)
+    return np.einsum("tij,j->ti", R1, c1 + s_med * u1) + t1

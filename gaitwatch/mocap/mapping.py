@@ -120,6 +120,32 @@ UPPER_ROLES = ("ASI", "PSI", "SHO", "SACR", "C7", "HEAD_TOP", "FHD", "HEAD_FRONT
 FOOT_ROLES = ("HEE", "TOE", "MT1", "MT5", "ANK", "MED", "TOETIP")
 
 
+# Technical clusters on the thigh and shank (used for functional knee centres when there is no
+# knee marker): "{S}" + one of these stems + an optional index or position word.
+CLUSTER_STEMS = {
+    "THIGH": ("THIGH", "TH", "THI", "THA"),
+    "SHANK": ("SHANK", "SH", "SK", "TIB", "TIA", "SHA"),
+}
+_CLUSTER_SUFFIX = r"(\d+|UPPER|LOWER|FRONT|REAR|AP|AD|P|D|ANT|POST|PROX|DIST)?"
+
+
+def resolve_clusters(markers: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Thigh and shank marker clusters: ``{"L_THIGH": (T, M, 3), ...}`` (M >= 3 only)."""
+    out: dict[str, np.ndarray] = {}
+    normed = {}
+    for label, xyz in markers.items():
+        xyz = np.asarray(xyz, float)
+        if np.isfinite(xyz).all(axis=-1).any():
+            normed.setdefault(_norm(label), xyz)
+    for seg, stems in CLUSTER_STEMS.items():
+        for side in ("L", "R"):
+            pat = re.compile(rf"^{side}({'|'.join(stems)}){_CLUSTER_SUFFIX}$")
+            members = [v for k, v in sorted(normed.items()) if pat.match(k)]
+            if len(members) >= 3:
+                out[f"{side}_{seg}"] = np.stack(members, axis=1)
+    return out
+
+
 def _norm(label: str) -> str:
     """'Subject:R.Knee.Lat ' -> 'RKNEELAT'."""
     return re.sub(r"[^A-Za-z0-9]", "", label.split(":")[-1]).upper()
@@ -178,7 +204,10 @@ def roles_vertical(r: dict[str, np.ndarray], source: str) -> tuple[int, int]:
 
 
 def roles_to_keypoints(
-    r: dict[str, np.ndarray], n_frames: int, options: MarkerMapOptions | None = None
+    r: dict[str, np.ndarray],
+    n_frames: int,
+    options: MarkerMapOptions | None = None,
+    clusters: dict[str, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, dict]:
     """Key points from role markers already in the world frame (z up, floor at z = 0).
 
@@ -188,6 +217,9 @@ def roles_to_keypoints(
         Output of :func:`resolve_roles`, rotated to z up and shifted to the floor.
     n_frames : int
     options : MarkerMapOptions, optional
+    clusters : dict, optional
+        Output of :func:`resolve_clusters` in the same frame: thigh and shank clusters give a
+        functional knee centre (SCoRE hinge) when there is no knee marker.
 
     Returns
     -------
@@ -305,6 +337,24 @@ def roles_to_keypoints(
                 "foot model from ankle centre and toe (no heel marker)",
             )
 
+    # ---- functional knees from thigh and shank clusters ---------------------------------
+    for side in ("left", "right"):
+        S = side[0].upper()
+        if (
+            f"{side}_knee" in methods
+            or not clusters
+            or f"{S}_THIGH" not in clusters
+            or f"{S}_SHANK" not in clusters
+            or f"{side}_hip" not in methods
+            or f"{side}_ankle" not in methods
+        ):
+            continue
+        R1, t1, _ = jc.segment_poses(clusters[f"{S}_THIGH"])
+        R2, t2, _ = jc.segment_poses(clusters[f"{S}_SHANK"])
+        knee = jc.hinge_centre(R1, t1, R2, t2, P[:, KP[f"{side}_hip"]], P[:, KP[f"{side}_ankle"]])
+        if np.isfinite(knee).any():
+            put(f"{side}_knee", knee, "functional: SCoRE hinge axis of thigh/shank clusters")
+
     # ---- trunk, head, arms ------------------------------------------------------------------
     lsho, rsho = _pair(r, "SHO")
     if "C7" in r:
@@ -385,12 +435,13 @@ def markers_to_trajectory(
         raise MocapFormatError(f"{source}: no marker label matches a known marker set")
     axis, sign = vertical if vertical is not None else roles_vertical(r, source)
     r = {k: to_z_up(v, axis, sign) for k, v in r.items()}
+    clusters = {k: to_z_up(v, axis, sign) for k, v in resolve_clusters(markers).items()}
     foot = [v[..., 2] for k, v in r.items() if k.split("_", 1)[-1] in FOOT_ROLES]
     floor = estimate_floor(foot)
-    for v in r.values():
+    for v in list(r.values()) + list(clusters.values()):
         v[..., 2] -= floor
     T = len(times)
-    P, info = roles_to_keypoints(r, T, options)
+    P, info = roles_to_keypoints(r, T, options, clusters)
     if align_walking:
         P, _ = align_walking_to_x(P)
     info.update({"vertical_axis": "xyz"[axis], "vertical_sign": sign, "floor_lab_m": floor})
