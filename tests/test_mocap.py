@@ -486,6 +486,7 @@ def test_trc_with_grf_contact_events(shared_data, rel, n_strikes, n_offs):
     trc = shared_file(shared_data, f"opensim/{rel}.trc")
     grf = shared_file(shared_data, f"opensim/{rel}-grf.mot")
     t = load_trc_with_grf(trc, grf)
+    assert load_mocap(trc, grf=grf).events == t.events
     ev = t.events
     assert sum(e["type"] == "heel_strike" for e in ev) == n_strikes
     assert sum(e["type"] == "toe_off" for e in ev) == n_offs
@@ -654,3 +655,34 @@ def test_align_walking_to_x(shared_data):
     assert np.allclose(
         _bone(a.positions, "neck", "left_wrist"), _bone(t.positions, "neck", "left_wrist")
     )
+
+
+def test_cluster_only_c3d_is_refused_clearly(shared_data):
+    # eb015pr has only technical clusters (no anatomical marker): nothing to map.
+    p = shared_file(shared_data, "c3d/eb015pr.c3d")
+    with pytest.raises(MocapFormatError, match="eb015pr.c3d: no marker label matches"):
+        load_mocap(p)
+
+
+def test_joint_centres_agree_with_the_lab_software(shared_data):
+    """motionanalysis-walk1.c3d also stores the Motion Analysis software's own joint centres
+    (VRHI/VLHI hips, VRKN/VLKN knees, VRAN/VLAN ankles): ours, from the skin markers by
+    Harrington's regression and medial offsets, agree within a couple of centimetres."""
+    from gaitwatch.mocap.c3d import read_c3d_markers
+
+    p = shared_file(shared_data, "c3d/motionanalysis-walk1.c3d")
+    lab = read_c3d_markers(p).markers()
+    t = _traj(shared_data, "c3d/motionanalysis-walk1.c3d")
+    floor = t.mapping_info["floor_lab_m"]
+    assert t.mapping_info["vertical_axis"] == "z"
+    for kp, virtual, tol_mm in [
+        ("right_hip", "VRHI", 15),
+        ("left_hip", "VLHI", 15),
+        ("right_knee", "VRKN", 25),
+        ("left_knee", "VLKN", 25),
+        ("right_ankle", "VRAN", 25),
+        ("left_ankle", "VLAN", 25),
+    ]:
+        d = t.joint(kp) - (lab[virtual] - [0.0, 0.0, floor])
+        rms_mm = 1000 * np.sqrt(np.nanmean(np.sum(d**2, axis=1)))
+        assert rms_mm < tol_mm, (kp, rms_mm)

@@ -125,12 +125,27 @@ def load_trc(
     vertical: tuple[int, int] | None = None,
     options: MarkerMapOptions | None = None,
     events: list[dict] | None = None,
+    grf: str | Path | None = None,
+    grf_threshold_n: float = 20.0,
 ) -> Trajectory:
     """A TRC recording as a :class:`Trajectory` of the 19 key points (z up, floor at 0).
 
     Times are ``(frame - first frame) / DataRate`` (the Time column is often rounded), so they
-    start at 0. ``events`` (times relative to the first frame) are attached as given.
+    start at 0. ``events`` (times relative to the first frame) are attached as given; with
+    ``grf`` (an OpenSim ground-reaction ``.mot``) the foot-contact events are derived from it
+    instead (see :func:`gaitwatch.mocap.mot.load_trc_with_grf`).
     """
+    if grf is not None:
+        from gaitwatch.mocap.mot import load_trc_with_grf
+
+        return load_trc_with_grf(
+            path,
+            grf,
+            grf_threshold_n,
+            align_walking_to_x=align_walking_to_x,
+            vertical=vertical,
+            options=options,
+        )
     m = read_trc(path)
     frames = m.frames - m.frames[0]
     if np.any(np.diff(frames) <= 0):
