@@ -220,12 +220,15 @@ def test_seeded_adaptive_keeps_a_person_standing_still(rng: np.random.Generator,
     assert seg.apply(_frame(bg, None, rng)).empty
 
 
-@pytest.mark.parametrize("mode", ["static", "mog2"])
-def test_work_scale_gives_full_resolution_results(rng: np.random.Generator, mode: str) -> None:
+@pytest.mark.parametrize(("mode", "scale"), [("static", 0.5), ("mog2", 0.5), ("static", 0.4)])
+def test_work_scale_gives_full_resolution_results(
+    rng: np.random.Generator, mode: str, scale: float
+) -> None:
     bg = _background(rng)
     a = _person_mask(cx=70)
     b = _person_mask(cx=230, top=20)
-    cfg = SegmentationConfig(mode=mode, work_scale=0.5, blur=0)
+    tol = 1 / scale + 0.5  # one working pixel
+    cfg = SegmentationConfig(mode=mode, work_scale=scale, blur=0)
     seg = Segmenter(cfg, bg).apply(_frame(bg, a | b, rng, shadow=True))
     assert seg.mask_full.shape == (H, W) and seg.labels.shape == (H, W)
     assert seg.mask.shape == (120, 160)
@@ -234,10 +237,13 @@ def test_work_scale_gives_full_resolution_results(rng: np.random.Generator, mode
     for blob in seg.blobs:
         truth = a if blob.centroid[0] < W / 2 else b
         ys, xs = np.nonzero(truth)
-        assert abs(blob.centroid[0] - xs.mean()) < 2 and abs(blob.centroid[1] - ys.mean()) < 2
-        assert blob.area == (seg.labels == blob.label).sum()
+        assert abs(blob.centroid[0] - xs.mean()) < tol and abs(blob.centroid[1] - ys.mean()) < tol
+        lab = seg.labels == blob.label
+        assert blob.area == lab.sum()
+        ly, lx = np.nonzero(lab)  # the bbox is exactly that of the blob's labelled pixels
+        assert blob.bbox == (lx.min(), ly.min(), lx.max() - lx.min() + 1, ly.max() - ly.min() + 1)
         x, y, w, h = blob.bbox
-        assert abs(x - xs.min()) <= 2 and abs(x + w - 1 - xs.max()) <= 2
-        assert abs(y - ys.min()) <= 2 and abs(y + h - 1 - ys.max()) <= 2
+        assert abs(x - xs.min()) <= tol and abs(x + w - 1 - xs.max()) <= tol
+        assert abs(y - ys.min()) <= tol and abs(y + h - 1 - ys.max()) <= tol
     only = keep_blobs(seg, [seg.blobs[0]])
     assert only.mask_full.sum() == seg.blobs[0].area

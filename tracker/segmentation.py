@@ -320,39 +320,38 @@ def _as_bgr(img: np.ndarray, what: str) -> np.ndarray:
     raise SegmentationError(f"{what}: expected an image (H, W) or (H, W, 3), got {img.shape}")
 
 
-def _blobs_of(labels: np.ndarray, n: int) -> list[Blob]:
-    """Blob statistics of a label image (int32, labels 1..n), in its pixel coordinates."""
-    h, w = labels.shape
-    blobs = []
-    if n == 0:
-        return blobs
-    ys, xs = np.nonzero(labels)
-    lab = labels[ys, xs]
-    area = np.bincount(lab, minlength=n + 1)
-    sx = np.bincount(lab, weights=xs, minlength=n + 1)
-    sy = np.bincount(lab, weights=ys, minlength=n + 1)
-    x0 = np.full(n + 1, w)
-    y0 = np.full(n + 1, h)
-    x1 = np.full(n + 1, -1)
-    y1 = np.full(n + 1, -1)
-    np.minimum.at(x0, lab, xs)
-    np.minimum.at(y0, lab, ys)
-    np.maximum.at(x1, lab, xs)
-    np.maximum.at(y1, lab, ys)
-    for k in range(1, n + 1):
-        if area[k] == 0:  # vanished in the upscale (cannot happen with nearest, kept safe)
-            continue
-        blobs.append(
+def _upscaled_blobs(blobs: list[Blob], labels: np.ndarray, work_wh: tuple[int, int]) -> list[Blob]:
+    """Blobs found at the working resolution, expressed in the full-resolution ``labels``.
+
+    ``labels`` (int32, H x W) is the nearest-neighbour upscale of the working label image of
+    size ``work_wh`` = (w, h). Areas are counted exactly; bounding boxes follow OpenCV's
+    nearest mapping (full pixel X comes from working pixel floor(X * w / W)); centroids are
+    scaled (exact for integer factors).
+    """
+    if not blobs:
+        return []
+    h_full, w_full = labels.shape
+    fx, fy = w_full / work_wh[0], h_full / work_wh[1]
+    if fx.is_integer() and fy.is_integer():  # each working pixel became fx x fy pixels
+        area = {b.label: b.area * int(fx) * int(fy) for b in blobs}
+    else:
+        area = np.bincount(labels.ravel(), minlength=max(b.label for b in blobs) + 1)
+    out = []
+    for b in blobs:
+        x, y, bw, bh = b.bbox
+        x0, y0 = int(np.ceil(x * fx)), int(np.ceil(y * fy))
+        x1, y1 = int(np.ceil((x + bw) * fx)), int(np.ceil((y + bh) * fy))
+        cx, cy = b.centroid
+        out.append(
             Blob(
-                label=k,
-                area=int(area[k]),
-                area_fraction=float(area[k]) / (h * w),
-                bbox=(int(x0[k]), int(y0[k]), int(x1[k] - x0[k] + 1), int(y1[k] - y0[k] + 1)),
-                centroid=(float(sx[k] / area[k]), float(sy[k] / area[k])),
+                label=b.label,
+                area=int(area[b.label]),
+                area_fraction=float(area[b.label]) / (h_full * w_full),
+                bbox=(x0, y0, x1 - x0, y1 - y0),
+                centroid=((cx + 0.5) * fx - 0.5, (cy + 0.5) * fy - 0.5),
             )
         )
-    blobs.sort(key=lambda b: -b.area)
-    return blobs
+    return out
 
 
 def _brightness(img: np.ndarray) -> np.ndarray:
@@ -605,7 +604,7 @@ class Segmenter:
             mask = downscale_mask(mask_w, self.config.output_size)
             labels = cv2.resize(labels_w, (width, height), interpolation=cv2.INTER_NEAREST)
             mask_full = labels > 0
-            blobs = _blobs_of(labels, len(blobs_w))
+            blobs = _upscaled_blobs(blobs_w, labels, (fg.shape[1], fg.shape[0]))
         if not blobs:
             log.debug("segmentation: no blob above the minimum area")
         return Segmentation(mask_full=mask_full, mask=mask, blobs=blobs, labels=labels)
