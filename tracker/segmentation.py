@@ -15,6 +15,10 @@ Two families of modes, chosen by :class:`SegmentationConfig`:
     learned from the footage itself, for homes where the light changes. Their shadow detection
     marks shadows 127, which count as background when shadow suppression is on.
 
+Frames may be segmented at a reduced working resolution (``work_scale``, e.g. 0.5 for 640x480
+footage and a 160x120 likelihood) for speed; the full-resolution mask, labels and blobs are then
+scaled back up (nearest neighbour).
+
 Then, in every mode: morphological opening (removes speckle) and closing (fills small holes),
 connected components, removal of blobs smaller than the minimum area, and a downscale to the
 likelihood resolution by area interpolation re-thresholded at 0.5 (a low-resolution pixel is
