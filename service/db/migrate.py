@@ -107,8 +107,10 @@ def upgrade(url: str, *, backup_dir: Path | None = None, revision: str = "head")
     Returns
     -------
     Path or None
-        The backup copy, when one was made (SQLite file that already held a schema).
+        The backup copy, when one was made (a SQLite file that already existed).
     """
+    path = sqlite_path(url)
+    existed = path is not None and path.is_file() and path.stat().st_size > 0
     engine = make_engine(url, pool_size=1)
     try:
         st = schema_status(engine)
@@ -116,11 +118,10 @@ def upgrade(url: str, *, backup_dir: Path | None = None, revision: str = "head")
             log.info("database already at revision %s", st.head)
             return None
         copy = None
-        path = sqlite_path(url)
-        if path is not None and path.is_file() and st.current is not None:
-            stamp = dt.datetime.now(dt.UTC).strftime("%Y%m%dT%H%M%SZ")
+        if path is not None and existed:
+            stamp = dt.datetime.now(dt.UTC).strftime("%Y%m%dT%H%M%S.%fZ")
             folder = backup_dir or path.parent
-            copy = folder / f"{path.stem}.pre-upgrade-{st.current}-{stamp}{path.suffix}"
+            copy = folder / f"{path.stem}.pre-upgrade-{st.current or 'empty'}-{stamp}{path.suffix}"
             backup_sqlite(engine, copy)
             log.info("backup of %s written to %s", path, copy)
         with engine.begin() as conn:

@@ -1,0 +1,149 @@
+"""Fixtures and helpers of the storage and API tests (imported by tests/test_db_*, test_api_*).
+
+A migrated SQLite file is built once per session and copied for each test, so each test gets
+a real, empty, current database quickly.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import shutil
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+from sqlalchemy import Engine, MetaData, select
+from sqlalchemy.orm import Session, sessionmaker
+
+from service.api.app import create_app
+from service.api.security import create_api_key
+from service.config import Settings
+from service.db.migrate import upgrade
+from service.db.models import Resident
+from service.db.session import make_engine, make_sessionmaker
+from service.db.synthetic import fake_gait_result
+
+# Fixtures, for ``from tests.service_helpers import *`` in the test modules.
+__all__ = [
+    "data_dir",
+    "db_url",
+    "engine",
+    "migrated_template",
+    "sessions",
+    "settings",
+    "world",
+]
+
+T0 = dt.datetime(2026, 3, 2, 9, 0, tzinfo=dt.UTC)
+
+
+@pytest.fixture(scope="session")
+def migrated_template(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("template") / "template.sqlite3"
+    upgrade(f"sqlite:///{path}")
+    return path
+
+
+@pytest.fixture
+def data_dir(tmp_path: Path) -> Path:
+    d = tmp_path / "data"
+    d.mkdir()
+    return d
+
+
+@pytest.fixture
+def db_url(migrated_template: Path, data_dir: Path) -> str:
+    path = data_dir / "gaitwatch.sqlite3"
+    shutil.copy(migrated_template, path)
+    return f"sqlite:///{path}"
+
+
+@pytest.fixture
+def settings(db_url: str, data_dir: Path) -> Settings:
+    return Settings(data_dir=data_dir, database_url=db_url)
+
+
+@pytest.fixture
+def engine(db_url: str) -> Iterator[Engine]:
+    e = make_engine(db_url, pool_size=2)
+    yield e
+    e.dispose()
+
+
+@pytest.fixture
+def sessions(engine: Engine) -> sessionmaker[Session]:
+    return make_sessionmaker(engine)
+
+
+@dataclass
+class World:
+    """Two residents; an admin key; caregiver A sees resident 1, caregiver B resident 2."""
+
+    client: TestClient
+    sessions: sessionmaker[Session]
+    r1: int
+    r2: int
+    admin: dict[str, str]
+    care_a: dict[str, str]
+    care_b: dict[str, str]
+
+
+def bearer(token: str) -> dict[str, str]:
+    return {"Authorization": f"Bearer {token}"}
+
+
+@pytest.fixture
+def world(settings: Settings) -> Iterator[World]:
+    app = create_app(settings)
+    sm = app.state.sessionmaker
+    with sm() as s:
+        a = Resident(display_name="Resident One", height_m=1.7, timezone="UTC")
+        b = Resident(display_name="Resident Two", height_m=1.6, timezone="Europe/Paris")
+        s.add_all([a, b])
+        s.flush()
+        _, admin = create_api_key(s, name="admin", role="admin")
+        _, ca = create_api_key(s, name="carer a", role="caregiver", resident_ids=[a.id])
+        _, cb = create_api_key(s, name="carer b", role="caregiver", resident_ids=[b.id])
+        s.commit()
+        r1, r2 = a.id, b.id
+    with TestClient(app) as client:
+        yield World(client, sm, r1, r2, bearer(admin), bearer(ca), bearer(cb))
+    app.state.engine.dispose()
+
+
+def recording(resident_id: int, n: int = 0, *, start: dt.datetime = T0, duration_s: float = 600):
+    """Recording info with a distinct hash per ``n``."""
+    return {
+        "resident_id": resident_id,
+        "cameras": ["living-room"],
+        "pose_log_path": None,
+        "sha256": f"{resident_id:08x}{n:056x}",
+        "started_at": start,
+        "duration_s": duration_s,
+    }
+
+
+def result(seed: int = 0, **kw: Any) -> dict[str, Any]:
+    return fake_gait_result(np.random.default_rng(seed), **kw)
+
+
+def snapshot(engine: Engine) -> dict[str, list[tuple]]:
+    """Every row of every table, for 'nothing stored changed' checks."""
+    md = MetaData()
+    md.reflect(engine)
+    out: dict[str, list[tuple]] = {}
+    with engine.connect() as conn:
+        for name, table in sorted(md.tables.items()):
+            out[name] = sorted(map(tuple, conn.execute(select(table)).all()), key=repr)
+    return out
+
+
+def data_snapshot(engine: Engine) -> dict[str, list[tuple]]:
+    """:func:`snapshot` without the audit log (reads are audited, so it grows on purpose)."""
+    snap = snapshot(engine)
+    snap.pop("audit_log", None)
+    return snap
