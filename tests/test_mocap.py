@@ -708,3 +708,27 @@ def test_joint_centres_agree_with_plug_in_gait_and_cgm2(shared_data, rel, prefix
             d = t.joint(f"{side}_{kp}") - (lab[f"{prefix}{S}{seg}"] - [0.0, 0.0, floor])
             rms_mm = 1000 * np.sqrt(np.nanmean(np.sum(d**2, axis=1)))
             assert rms_mm < 25, (side, kp, rms_mm)
+
+
+def test_gap_filling_is_optional_and_bounded():
+    from gaitwatch.mocap import MarkerMapOptions
+    from gaitwatch.mocap.mapping import fill_gaps
+
+    x = np.column_stack([np.arange(30.0), np.zeros(30), np.ones(30)])
+    x[[0, 5, 6, 7]] = np.nan  # leading gap and a 3-frame gap
+    x[15:25] = np.nan  # a 10-frame gap
+    y = fill_gaps(x, 5)
+    assert np.isnan(y[0]).all() and np.isnan(y[15:25]).all()
+    assert np.allclose(y[5:8, 0], [5, 6, 7])
+    world = _synthetic_markers()
+    world["LASI"][10:13] = np.nan
+    raw = markers_to_trajectory(world, np.arange(30) / 50, fps=50.0, source="s")
+    filled = markers_to_trajectory(
+        world, np.arange(30) / 50, fps=50.0, source="s", options=MarkerMapOptions(max_gap_s=0.1)
+    )
+    assert np.isnan(raw.positions[10:13, KP["left_hip"]]).all()
+    assert np.isfinite(filled.positions[10:13, KP["left_hip"]]).all()
+    with pytest.raises(ValueError):
+        MarkerMapOptions(max_gap_s=-1)
+    with pytest.raises(ValueError):
+        MarkerMapOptions(knee_offset=0.05)  # unknown fields are refused

@@ -73,6 +73,13 @@ class MarkerMapOptions(BaseModel):
         description="heel behind the ankle as a fraction of the ankle-toe "
         "distance (foot model used when there is no heel marker)",
     )
+    max_gap_s: float = Field(
+        0.0,
+        ge=0,
+        le=2.0,
+        description="interpolate (linearly) marker gaps up to this long "
+        "before mapping; 0 keeps every missing sample NaN (the default)",
+    )
     trochanter_medial_fraction: float = Field(
         0.25,
         ge=0,
@@ -144,6 +151,36 @@ def resolve_clusters(markers: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]
             if len(members) >= 3:
                 out[f"{side}_{seg}"] = np.stack(members, axis=1)
     return out
+
+
+def fill_gaps(xyz: np.ndarray, max_gap_frames: int) -> np.ndarray:
+    """Linear interpolation of interior runs of missing frames no longer than ``max_gap_frames``.
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (T, 3)
+        NaN where missing.
+    max_gap_frames : int
+
+    Returns
+    -------
+    ndarray, shape (T, 3)
+        A copy; leading and trailing gaps and longer gaps stay NaN.
+    """
+    x = np.array(xyz, dtype=float)
+    ok = np.isfinite(x).all(axis=-1)
+    if max_gap_frames <= 0 or ok.all() or ok.sum() < 2:
+        return x
+    idx = np.arange(len(x))
+    good = np.flatnonzero(ok)
+    nxt = np.searchsorted(good, idx)
+    interior = ~ok & (nxt > 0) & (nxt < len(good))
+    nxt_c = np.clip(nxt, 1, len(good) - 1)
+    gap = good[nxt_c] - good[nxt_c - 1] - 1
+    fill = interior & (gap <= max_gap_frames)
+    for c in range(3):
+        x[fill, c] = np.interp(idx[fill], good, x[good, c])
+    return x
 
 
 def _norm(label: str) -> str:
@@ -430,6 +467,10 @@ def markers_to_trajectory(
         With ``info`` attached as ``traj.mapping_info`` (methods per key point, vertical axis,
         floor height in the laboratory frame).
     """
+    o = options or MarkerMapOptions()
+    if o.max_gap_s > 0 and fps:
+        n = int(round(o.max_gap_s * fps))
+        markers = {k: fill_gaps(v, n) for k, v in markers.items()}
     r = resolve_roles(markers)
     if not r:
         raise MocapFormatError(f"{source}: no marker label matches a known marker set")
