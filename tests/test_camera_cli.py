@@ -138,3 +138,17 @@ def test_visible_floor_of_a_camera_looking_down() -> None:
     # A camera below the floor sees none.
     below = Camera.look_at(name="b", position=[0, 0, -1.0], target=[0, 1, -1.0])
     assert visible_floor(below).shape == (0, 2)
+
+
+def test_first_frame_of_a_video_is_used(
+    tmp_path: Path, cam: Camera, cam_file: Path, capsys: pytest.CaptureFixture
+) -> None:
+    video = tmp_path / "clip.avi"
+    w = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 20.0, (640, 480))
+    for _ in range(3):
+        w.write(np.full((480, 640, 3), 60, np.uint8))
+    w.release()
+    assert main(["camera", "check", str(cam_file), str(video)]) == 0
+    drawn = cv2.imread(str(tmp_path / "clip-check.png"))
+    u, v = np.round(cam.project(np.zeros(3))).astype(int)
+    assert np.abs(drawn[v, u].astype(int) - (0, 255, 255)).sum() < 60  # the yellow origin dot

@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from gaitwatch.errors import InputError
-from service.video import read_image
+from service.video import IMAGE_SUFFIXES, VideoError, open_source, read_image
 from tracker.camera import Camera, check_image_size, load_camera
 
 log = logging.getLogger(__name__)
@@ -52,7 +52,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="IMAGE",
         type=Path,
         nargs="?",
-        help="a frame from this camera to draw the floor grid and world axes on",
+        help="a frame from this camera (an image, or a video or frame folder whose first "
+        "frame is used) to draw the floor grid and world axes on",
     )
     c.add_argument(
         "--out",
@@ -313,6 +314,18 @@ def summary(camera: Camera, source: str, max_range: float = 15.0) -> list[str]:
     return lines
 
 
+def _first_image(path: Path) -> np.ndarray:
+    """An image file, or the first frame of a video or frame folder (uint8 BGR)."""
+    if path.is_file() and path.suffix.lower() in IMAGE_SUFFIXES | {".bmp", ".tif", ".tiff"}:
+        return read_image(path)
+    try:
+        return read_image(path)
+    except VideoError:
+        pass
+    with open_source(path, fps=1.0) as src:
+        return next(iter(src)).image
+
+
 def run_check(args: argparse.Namespace) -> int:
     camera = load_camera(args.camera)
     if args.grid <= 0:
@@ -324,7 +337,7 @@ def run_check(args: argparse.Namespace) -> int:
     if args.image is None and args.out is None:
         return 0
     if args.image is not None:
-        image = read_image(args.image)
+        image = _first_image(args.image)
         check_image_size(camera, image.shape[1], image.shape[0], what=f"the image {args.image}")
         out = args.out or args.image.with_name(args.image.stem + "-check.png")
     else:
