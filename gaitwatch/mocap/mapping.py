@@ -440,7 +440,7 @@ def markers_to_trajectory(
     events: list[dict] | None = None,
     vertical: tuple[int, int] | None = None,
     align_walking: bool = False,
-    options: MarkerMapOptions | None = None,
+    options: MarkerMapOptions | dict | None = None,
 ) -> Trajectory:
     """The common end of the marker readers: laboratory markers (metres) -> :class:`Trajectory`.
 
@@ -459,7 +459,8 @@ def markers_to_trajectory(
         The laboratory's up axis; detected from the markers when omitted.
     align_walking : bool
         Rotate about z so that the overall walking direction is +x.
-    options : MarkerMapOptions, optional
+    options : MarkerMapOptions or dict, optional
+        Mapping constants (a dict is validated into :class:`MarkerMapOptions`).
 
     Returns
     -------
@@ -467,7 +468,11 @@ def markers_to_trajectory(
         With ``info`` attached as ``traj.mapping_info`` (methods per key point, vertical axis,
         floor height in the laboratory frame).
     """
-    o = options or MarkerMapOptions()
+    o = (
+        options
+        if isinstance(options, MarkerMapOptions)
+        else MarkerMapOptions.model_validate(options or {})
+    )
     if o.max_gap_s > 0 and fps:
         n = int(round(o.max_gap_s * fps))
         markers = {k: fill_gaps(v, n) for k, v in markers.items()}
@@ -482,7 +487,7 @@ def markers_to_trajectory(
     for v in list(r.values()) + list(clusters.values()):
         v[..., 2] -= floor
     T = len(times)
-    P, info = roles_to_keypoints(r, T, options, clusters)
+    P, info = roles_to_keypoints(r, T, o, clusters)
     if align_walking:
         P, _ = align_walking_to_x(P)
     info.update({"vertical_axis": "xyz"[axis], "vertical_sign": sign, "floor_lab_m": floor})
