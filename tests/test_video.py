@@ -23,6 +23,7 @@ from service.video import (
     open_videos,
     read_image,
 )
+from tests.conftest import shared_file
 from tracker.camera import Camera
 
 W, H = 64, 48
@@ -227,3 +228,19 @@ def test_read_image(tmp_path: Path) -> None:
     (tmp_path / "x.png").write_text("no")
     with pytest.raises(VideoError, match="x.png: cannot be decoded"):
         read_image(tmp_path / "x.png")
+
+
+def test_real_footage_first_frames(shared_data: Path) -> None:
+    p = shared_file(shared_data, "video/outdoor-walk-1768x994-30fps.mp4")
+    cam = Camera.look_at(
+        name="tripod", position=[0, -5, 1.5], target=[0, 0, 1], image_size=(1768, 994), fps=30
+    )
+    times = []
+    with open_videos([p], [cam]) as vids:
+        assert vids.frame_count == 230
+        for i, t, frames in vids:
+            assert frames[0].shape == (994, 1768, 3)
+            times.append(t)
+            if i == 9:
+                break
+    np.testing.assert_allclose(times, np.arange(10) / 30.0, atol=1e-3)
