@@ -9,6 +9,7 @@ from __future__ import annotations
 import datetime as dt
 import shutil
 from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -16,14 +17,14 @@ from typing import Any
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
-from sqlalchemy import Engine, MetaData, select
+from sqlalchemy import Engine, select
 from sqlalchemy.orm import Session, sessionmaker
 
 from service.api.app import create_app
 from service.api.security import create_api_key
 from service.config import Settings
 from service.db.migrate import upgrade
-from service.db.models import Resident
+from service.db.models import Base, Resident
 from service.db.session import make_engine, make_sessionmaker
 from service.db.synthetic import fake_gait_result
 
@@ -35,6 +36,7 @@ __all__ = [
     "migrated_template",
     "sessions",
     "settings",
+    "shared_world",
     "world",
 ]
 
@@ -96,8 +98,12 @@ def bearer(token: str) -> dict[str, str]:
     return {"Authorization": f"Bearer {token}"}
 
 
-@pytest.fixture
-def world(settings: Settings) -> Iterator[World]:
+@contextmanager
+def build_world(data: Path, template: Path) -> Iterator[World]:
+    """A migrated database copied from ``template`` into ``data``, the app, residents, keys."""
+    data.mkdir(parents=True, exist_ok=True)
+    shutil.copy(template, data / "gaitwatch.sqlite3")
+    settings = Settings(data_dir=data, database_url=f"sqlite:///{data / 'gaitwatch.sqlite3'}")
     app = create_app(settings)
     sm = app.state.sessionmaker
     with sm() as s:
@@ -110,9 +116,27 @@ def world(settings: Settings) -> Iterator[World]:
         _, cb = create_api_key(s, name="carer b", role="caregiver", resident_ids=[b.id])
         s.commit()
         r1, r2 = a.id, b.id
-    with TestClient(app) as client:
-        yield World(client, sm, r1, r2, bearer(admin), bearer(ca), bearer(cb))
-    app.state.engine.dispose()
+    try:
+        with TestClient(app) as client:
+            yield World(client, sm, r1, r2, bearer(admin), bearer(ca), bearer(cb))
+    finally:
+        app.state.engine.dispose()
+
+
+@pytest.fixture
+def world(tmp_path: Path, migrated_template: Path) -> Iterator[World]:
+    """A fresh world per test (for tests that change data)."""
+    with build_world(tmp_path / "world", migrated_template) as w:
+        yield w
+
+
+@pytest.fixture(scope="module")
+def shared_world(
+    tmp_path_factory: pytest.TempPathFactory, migrated_template: Path
+) -> Iterator[World]:
+    """One world per test module, for tests that must not change anything."""
+    with build_world(tmp_path_factory.mktemp("shared") / "world", migrated_template) as w:
+        yield w
 
 
 def recording(resident_id: int, n: int = 0, *, start: dt.datetime = T0, duration_s: float = 600):
@@ -133,11 +157,9 @@ def result(seed: int = 0, **kw: Any) -> dict[str, Any]:
 
 def snapshot(engine: Engine) -> dict[str, list[tuple]]:
     """Every row of every table, for 'nothing stored changed' checks."""
-    md = MetaData()
-    md.reflect(engine)
     out: dict[str, list[tuple]] = {}
     with engine.connect() as conn:
-        for name, table in sorted(md.tables.items()):
+        for name, table in sorted(Base.metadata.tables.items()):
             out[name] = sorted(map(tuple, conn.execute(select(table)).all()), key=repr)
     return out
 

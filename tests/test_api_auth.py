@@ -27,12 +27,12 @@ def _with_fall(w: World, resident_id: int, n: int = 0) -> None:
         "/metrics",
     ],
 )
-def test_no_key_reads_nothing_but_healthz(world: World, path: str) -> None:
-    r = world.client.get(path)
+def test_no_key_reads_nothing_but_healthz(shared_world: World, path: str) -> None:
+    r = shared_world.client.get(path)
     assert r.status_code == 401
     assert r.json()["error"]["code"] == "unauthorized"
     assert r.headers["www-authenticate"] == "Bearer"
-    assert world.client.get("/healthz").json()["database"] == "ok"
+    assert shared_world.client.get("/healthz").json()["database"] == "ok"
 
 
 @pytest.mark.parametrize(
@@ -45,15 +45,15 @@ def test_no_key_reads_nothing_but_healthz(world: World, path: str) -> None:
         {"X-API-Key": "' OR 1=1 --"},
     ],
 )
-def test_bad_keys_are_401(world: World, headers: dict[str, str]) -> None:
-    assert world.client.get("/residents", headers=headers).status_code == 401
+def test_bad_keys_are_401(shared_world: World, headers: dict[str, str]) -> None:
+    assert shared_world.client.get("/residents", headers=headers).status_code == 401
 
 
-def test_key_with_right_prefix_but_wrong_secret_is_401(world: World) -> None:
-    token = world.admin["Authorization"].split()[1]
+def test_key_with_right_prefix_but_wrong_secret_is_401(shared_world: World) -> None:
+    token = shared_world.admin["Authorization"].split()[1]
     forged = token[:-4] + ("AAAA" if not token.endswith("AAAA") else "BBBB")
-    assert world.client.get("/residents", headers=bearer(forged)).status_code == 401
-    assert world.client.get("/residents", headers={"X-API-Key": token}).status_code == 200
+    assert shared_world.client.get("/residents", headers=bearer(forged)).status_code == 401
+    assert shared_world.client.get("/residents", headers={"X-API-Key": token}).status_code == 200
 
 
 def test_revoked_key_stops_working_at_once(world: World) -> None:
@@ -86,13 +86,15 @@ def test_revoked_key_stops_working_at_once(world: World) -> None:
         ("post", "/residents/{r1}/recordings", {"recording": {}, "result": {}}),
     ],
 )
-def test_caregiver_may_not_administer(world: World, method, path, body) -> None:
-    before = world.client.get("/residents", headers=world.admin).json()
+def test_caregiver_may_not_administer(shared_world: World, method, path, body) -> None:
+    before = shared_world.client.get("/residents", headers=shared_world.admin).json()
     kw = {"json": body} if body is not None else {}
-    r = getattr(world.client, method)(path.format(r1=world.r1), headers=world.care_a, **kw)
+    r = getattr(shared_world.client, method)(
+        path.format(r1=shared_world.r1), headers=shared_world.care_a, **kw
+    )
     assert r.status_code == 403, r.text
     assert r.json()["error"]["code"] == "forbidden"
-    assert world.client.get("/residents", headers=world.admin).json() == before
+    assert shared_world.client.get("/residents", headers=shared_world.admin).json() == before
 
 
 @pytest.mark.parametrize(
@@ -107,13 +109,25 @@ def test_caregiver_may_not_administer(world: World, method, path, body) -> None:
         "/alerts?resident_id={r}",
     ],
 )
-def test_other_caregivers_resident_is_404_like_a_missing_one(world: World, path: str) -> None:
-    other = world.client.get(path.format(r=world.r2), headers=world.care_a)
-    missing = world.client.get(path.format(r=987654), headers=world.care_a)
+def test_other_caregivers_resident_is_404_like_a_missing_one(
+    shared_world: World, path: str
+) -> None:
+    other = shared_world.client.get(path.format(r=shared_world.r2), headers=shared_world.care_a)
+    missing = shared_world.client.get(path.format(r=987654), headers=shared_world.care_a)
     assert other.status_code == missing.status_code == 404
     assert other.json()["error"]["code"] == "not_found"
-    assert world.client.get(path.format(r=world.r1), headers=world.care_a).status_code == 200
-    assert world.client.get(path.format(r=world.r2), headers=world.admin).status_code == 200
+    assert (
+        shared_world.client.get(
+            path.format(r=shared_world.r1), headers=shared_world.care_a
+        ).status_code
+        == 200
+    )
+    assert (
+        shared_world.client.get(
+            path.format(r=shared_world.r2), headers=shared_world.admin
+        ).status_code
+        == 200
+    )
 
 
 def test_caregiver_lists_only_assigned_residents_alerts_and_cameras(world: World) -> None:
