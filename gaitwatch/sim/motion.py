@@ -70,8 +70,6 @@ NECK_TO_HEAD = 0.117
 SACRUM_BACK = 0.055
 SACRUM_UP = 0.03
 
-UPPER_BODY = (HEAD, NECK, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST)
-
 
 class MotionError(InputError):
     """A motion that cannot be rendered (the message names the source and what is missing)."""
@@ -301,11 +299,14 @@ def two_link_knee(
 
 
 def estimate_stature(positions: np.ndarray) -> float:
-    """Standing height (m) estimated from key points (T, 19, 3): head if known, else hips."""
+    """Standing height (m) estimated from key points (T, 19, 3): head, else neck, else hips."""
     head = positions[:, HEAD, 2]
     if np.isfinite(head).sum() > 0:
         # the head is highest at mid-stance, close to its standing height
         return float(np.nanpercentile(head, 95) / 0.935)
+    neck = positions[:, NECK, 2]
+    if np.isfinite(neck).sum() > 0:
+        return float(np.nanpercentile(neck, 95) / 0.83)
     hips = positions[:, [L_HIP, R_HIP], 2]
     if np.isfinite(hips).sum() > 0:
         # hip joints are at 0.53 S standing, a little lower while walking
@@ -314,14 +315,33 @@ def estimate_stature(positions: np.ndarray) -> float:
 
 
 def _fill_gaps(positions: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """Interpolate NaN gaps per key point in time (ends held); all-NaN key points stay NaN."""
+    """Interpolate NaN gaps in time; all-NaN key points stay NaN.
+
+    A key point whose parent in the skeleton tree (``BONES``) is known throughout is filled as
+    parent + interpolated offset, so a marker lost while the limb moves stays attached to it.
+    """
+    from gaitwatch.conventions import BONE_INDICES
+
     out = positions.copy()
-    for j in range(positions.shape[1]):
-        ok = np.isfinite(positions[:, j]).all(axis=1)
+
+    def interp(values: np.ndarray) -> np.ndarray | None:
+        ok = np.isfinite(values).all(axis=1)
         if ok.all() or not ok.any():
-            continue
-        for c in range(3):
-            out[:, j, c] = np.interp(times, times[ok], positions[ok, j, c])
+            return None
+        return np.stack([np.interp(times, times[ok], values[ok, c]) for c in range(3)], 1)
+
+    filled = interp(out[:, SACRUM])
+    if filled is not None:
+        out[:, SACRUM] = filled
+    for parent, child in BONE_INDICES:
+        if np.isfinite(out[:, parent]).all():
+            off = interp(out[:, child] - out[:, parent])
+            if off is not None:
+                out[:, child] = out[:, parent] + off
+        else:
+            filled = interp(out[:, child])
+            if filled is not None:
+                out[:, child] = filled
     return out
 
 
@@ -337,10 +357,13 @@ def _body_axes(pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def complete_for_render(traj: Trajectory) -> tuple[Trajectory, list[str]]:
     """Fill what a recording lacks so that every key point is known in every frame.
 
+    Frames before the first and after the last frame where every recorded key point is known
+    are dropped (end gaps are not extrapolated); gaps inside are interpolated.
+
     Returns
     -------
     Trajectory
-        Same times, all 19 key points finite.
+        The kept frames (original times and frame numbers), all 19 key points finite.
     list of str
         Names of the key points that were synthesised (absent from the whole recording) rather
         than interpolated.
@@ -352,6 +375,22 @@ def complete_for_render(traj: Trajectory) -> tuple[Trajectory, list[str]]:
     """
     from gaitwatch.conventions import KEYPOINTS
 
+    # Keep the span where every recorded key point is known at its ends (no held values).
+    present = np.isfinite(traj.positions).all(axis=2).any(axis=0)
+    valid = np.isfinite(traj.positions[:, present]).all(axis=(1, 2))
+    if not valid.any():
+        raise MotionError(f"{traj.source or 'motion'}: no frame has all its recorded key points")
+    first, last = np.flatnonzero(valid)[[0, -1]]
+    if first > 0 or last < len(traj) - 1:
+        log.info("%s: using frames %d..%d (key points missing outside)", traj.source, first, last)
+        traj = Trajectory(
+            positions=traj.positions[first : last + 1],
+            times=traj.times[first : last + 1],
+            frames=traj.frames[first : last + 1],
+            fps=traj.fps,
+            source=traj.source,
+            events=[e for e in traj.events if traj.times[first] <= e["time_s"] <= traj.times[last]],
+        )
     pos = _fill_gaps(traj.positions, traj.times)
     missing = [j for j in range(N_KEYPOINTS) if not np.isfinite(pos[:, j]).all()]
     need = [L_HIP, R_HIP, L_KNEE, R_KNEE, L_ANKLE, R_ANKLE]
@@ -374,26 +413,26 @@ def complete_for_render(traj: Trajectory) -> tuple[Trajectory, list[str]]:
             t_ = pos[:, ia] + TOE_FWD * S * fwd
             t_[:, 2] = np.maximum(pos[:, ia, 2] - ANKLE_H * S, 0.0)
             pos[:, it] = t_
-    upper_missing = [j for j in UPPER_BODY if j in missing]
-    if upper_missing:
-        # Upright trunk on the pelvis; keep any upper-body point the recording does have.
-        neck = mid_hip + HIP_TO_NECK * S * UP
-        synth = {
-            NECK: neck,
-            HEAD: neck + NECK_TO_HEAD * S * UP + 0.015 * S * fwd,
-        }
-        abd = math.radians(8.0)
-        for sgn, i_sh, i_el, i_wr in (
-            (1, L_SHOULDER, L_ELBOW, L_WRIST),
-            (-1, R_SHOULDER, R_ELBOW, R_WRIST),
-        ):
-            sh = neck + sgn * SHOULDER_HALF * S * lat - 0.015 * S * UP
-            down = -UP * math.cos(abd) + sgn * lat * math.sin(abd)
-            el = sh + UPPER_ARM * S * down
+    # Upright trunk on the pelvis: each missing point hangs from its parent (recorded or
+    # itself synthesised): neck from the hips, head and shoulders from the neck, elbows from
+    # the shoulders, wrists from the elbows.
+    if NECK in missing:
+        pos[:, NECK] = mid_hip + HIP_TO_NECK * S * UP
+    if HEAD in missing:
+        pos[:, HEAD] = pos[:, NECK] + NECK_TO_HEAD * S * UP + 0.015 * S * fwd
+    abd = math.radians(8.0)
+    for sgn, i_sh, i_el, i_wr in (
+        (1, L_SHOULDER, L_ELBOW, L_WRIST),
+        (-1, R_SHOULDER, R_ELBOW, R_WRIST),
+    ):
+        down = -UP * math.cos(abd) + sgn * lat * math.sin(abd)
+        if i_sh in missing:
+            pos[:, i_sh] = pos[:, NECK] + sgn * SHOULDER_HALF * S * lat - 0.015 * S * UP
+        if i_el in missing:
+            pos[:, i_el] = pos[:, i_sh] + UPPER_ARM * S * down
+        if i_wr in missing:
             d_fa = down * math.cos(math.radians(15)) + fwd * math.sin(math.radians(15))
-            synth.update({i_sh: sh, i_el: el, i_wr: el + FOREARM * S * d_fa})
-        for j in upper_missing:
-            pos[:, j] = synth[j]
+            pos[:, i_wr] = pos[:, i_el] + FOREARM * S * d_fa
     synthesised = [KEYPOINTS[j] for j in missing]
     if synthesised:
         log.info("%s: synthesised key points %s", traj.source, ", ".join(synthesised))
