@@ -21,6 +21,7 @@ log = logging.getLogger("gaitwatch")
 # Order is the order of ``gaitwatch --help``.
 COMMAND_MODULES: tuple[str, ...] = (
     "service.commands.demo",
+    "service.commands.track",
     "service.commands.export",
     "service.commands.gait",
     "service.commands.camera",

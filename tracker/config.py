@@ -23,6 +23,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from gaitwatch.errors import InputError
 from tracker.dof import DOF_NAMES, INTERESTING_DEFAULT, LIMIT_PROFILES, ROOT_DOFS
+from tracker.segmentation import SegmentationConfig
 
 FilterName = Literal["ipf", "apf", "condensation"]
 FILTER_NAMES: tuple[str, ...] = ("ipf", "apf", "condensation")
@@ -93,6 +94,16 @@ class IPFConfig(_Model):
     ] = Field(
         default_factory=lambda: {**_default_sigmas(), **{DOF_NAMES[i]: 0.0 for i in ROOT_DOFS}}
     )
+    interval_centre: Annotated[
+        Literal["value", "velocity"],
+        Field(
+            description="Centre of each L interval: the particle's value (the method) or its "
+            "value moved by the damped velocity of the estimate's L DOFs over the last frame"
+        ),
+    ] = "value"
+    velocity_damping: Annotated[
+        float, Field(ge=0, le=1, description="Factor on the velocity for interval_centre=velocity")
+    ] = 0.7
     factored: Annotated[
         bool,
         Field(description="Use the likelihood's left/right-leg factorisation when L allows it"),
@@ -236,6 +247,13 @@ class TrackerConfig(_Model):
     lost_frames: Annotated[
         int, Field(ge=1, le=1000, description="Bad frames in a row before re-initialisation")
     ] = 5
+    segmentation: Annotated[
+        SegmentationConfig,
+        Field(
+            description="Background subtraction; its output_size is set to likelihood_size, "
+            "and static mode without background images falls back to mog2"
+        ),
+    ] = Field(default_factory=SegmentationConfig)
     min_silhouette_px: Annotated[
         int,
         Field(

@@ -9,7 +9,10 @@ Each frame:
    per kept particle, shared by its group), then L is replaced by a deterministic grid of q values
    per DOF inside an interval of width ``w * dt / 0.05`` around its value (shifted to lie inside
    the joint limits, so the q values stay distinct and legal), giving I = q^n neighbours per kept
-   particle, N = M * I particles. Every particle is clamped to the joint limits.
+   particle, N = M * I particles. Every particle is clamped to the joint limits. (Option, off by
+   default: ``interval_centre="velocity"`` moves the interval centres by the damped change of
+   the estimate's L values over the last frame, so that fast swing phases are not limited to
+   ``w / 2`` per frame.)
 3. **Measure** — weigh every particle; the estimate is the heaviest.
 
 Structure exploited where exact: the I particles of a group share R, so they share the upper body
@@ -69,6 +72,8 @@ class IntervalParticleFilter(Filter):
             np.unravel_index(np.arange(self.I), (self.q,) * len(self.L)), axis=1
         ).astype(np.intp)
         self.used_factored = False
+        self._history: list[np.ndarray] = []  # L values of the last two estimates
+        self._last_dt = reference_dt
 
     @staticmethod
     def _names(idx: np.ndarray) -> list[str]:
@@ -98,12 +103,24 @@ class IntervalParticleFilter(Filter):
         vals = (start + w / 2)[:, :, None] + offsets[None, None, :] * w[None, :, None]
         return np.clip(vals, lo[None, :, None], hi[None, :, None])
 
+    def initialise(self, poses: np.ndarray, weights: np.ndarray | None = None) -> None:
+        super().initialise(poses, weights)
+        self._history = []
+
+    def velocity_shift(self, dt: float) -> np.ndarray:
+        """Shift (n,) of the interval centres: 0 for ``interval_centre="value"`` (the method)."""
+        if self.config.interval_centre != "velocity" or len(self._history) < 2:
+            return np.zeros(len(self.L))
+        prev, last, last_dt = self._history[-2], self._history[-1], self._last_dt
+        return self.config.velocity_damping * (last - prev) * (dt / last_dt)
+
     def predict(self, kept: np.ndarray, dt: float) -> np.ndarray:
         """The N = M * I predicted particles (M * I, 31) from the kept ones (M, 31)."""
         m = kept.shape[0]
         base = self._diffuse(kept, self.sigma * (dt / self.reference_dt))
         self.clamp(base)
-        vals = self.interval_values(base[:, self.L], dt)  # (M, n, q)
+        centres = base[:, self.L] + self.velocity_shift(dt)
+        vals = self.interval_values(centres, dt)  # (M, n, q)
         out = np.repeat(base[:, None, :], self.I, axis=1)  # (M, I, 31)
         for k, dof in enumerate(self.L):
             out[:, :, dof] = vals[:, k, self.combos[:, k]]
@@ -140,6 +157,9 @@ class IntervalParticleFilter(Filter):
         particles = self.predict(kept, dt)
         self.weights = self.measure(likelihood, particles)
         self.particles = particles
+        best = particles[int(np.argmax(self.weights)), self.L]
+        self._history = [*self._history[-1:], best.copy()]
+        self._last_dt = dt
 
 
 __all__ = ["IntervalParticleFilter", "ROOT_DOFS"]

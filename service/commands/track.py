@@ -1,0 +1,214 @@
+"""``gaitwatch track``: synchronised camera footage -> 3D poses in an MCAP pose log.
+
+::
+
+    gaitwatch track VIDEO [VIDEO ...] --camera CAM.yaml [--camera CAM.yaml ...]
+                    [--height METRES] [--background IMAGE ...] [--filter ipf|apf|condensation]
+                    [--seed N] --out POSES.mcap
+                    [--config TRACKER.toml|yaml] [--particles N] [--max-frames N]
+                    [--segmentation static|mog2|knn] [--threads N] [--allow-length-mismatch]
+
+One VIDEO (a file OpenCV reads, or a folder of numbered PNG/JPEG frames) per ``--camera``, in the
+same order. Frames are processed one at a time (memory does not grow with the footage) and each is
+written to the pose log at once: a pose, or a "no pose" status with its reason. The log is
+finalised even when tracking stops on an error (a corrupt frame, videos of different lengths), so
+the poses written so far stay readable; the error is then reported on one line and the exit code
+is non-zero. Every random draw comes from one generator seeded by ``--seed``: the same seed gives
+the same poses.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from gaitwatch.errors import InputError
+from tracker.config import FILTER_NAMES, TrackerConfig, TrackerConfigError, load_tracker_config
+
+log = logging.getLogger(__name__)
+
+
+class TrackArgumentError(InputError):
+    """A ``track`` option that cannot be used."""
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "track",
+        help="track a person in synchronised videos and write 3D poses to an MCAP pose log",
+        description="Track a person in synchronised videos (one per camera) and write 3D poses "
+        "to an MCAP pose log.",
+    )
+    p.add_argument(
+        "videos", nargs="+", metavar="VIDEO", help="one video or frame folder per camera"
+    )
+    p.add_argument(
+        "--camera", action="append", required=True, metavar="CAM.yaml", help="camera file (repeat)"
+    )
+    p.add_argument(
+        "--height", type=float, default=1.70, metavar="METRES", help="resident's height (1.70)"
+    )
+    p.add_argument(
+        "--background",
+        action="append",
+        metavar="IMAGE",
+        help="image of the empty scene per camera (repeat); without: learned from the footage",
+    )
+    p.add_argument("--filter", choices=FILTER_NAMES, help="body-part filter (default ipf)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (0)")
+    p.add_argument("--out", required=True, metavar="POSES.mcap", help="output pose log")
+    p.add_argument("--config", metavar="FILE", help="tracker settings, TOML or YAML")
+    p.add_argument(
+        "--particles",
+        type=int,
+        metavar="N",
+        help="likelihood evaluations per frame (IPF keeps M = N // q^n particles; the baselines "
+        "use M * q^n)",
+    )
+    p.add_argument("--max-frames", type=int, metavar="N", help="stop after N frames")
+    p.add_argument(
+        "--segmentation",
+        choices=("static", "mog2", "knn"),
+        help="background subtraction mode (default: static with --background, else mog2)",
+    )
+    p.add_argument("--threads", type=int, metavar="N", help="numba threads for the likelihood")
+    p.add_argument(
+        "--allow-length-mismatch",
+        action="store_true",
+        help="videos of different lengths: stop at the shortest with a warning instead of an error",
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def build_config(args: argparse.Namespace) -> TrackerConfig:
+    """The tracker configuration from ``--config`` and the command-line overrides."""
+    config = load_tracker_config(args.config) if args.config else TrackerConfig()
+    update: dict = {}
+    if args.filter:
+        update["filter"] = args.filter
+    if args.segmentation:
+        update["segmentation"] = config.segmentation.model_copy(update={"mode": args.segmentation})
+    if args.particles is not None:
+        if args.particles < 1:
+            raise TrackArgumentError(f"--particles must be >= 1, not {args.particles}")
+        per = config.ipf.neighbours
+        kept = max(1, args.particles // per)
+        update["ipf"] = config.ipf.model_copy(update={"kept": kept})
+        update["evaluations"] = None
+    if update:
+        try:
+            config = TrackerConfig.model_validate({**config.model_dump(), **update})
+        except Exception as err:  # pydantic ValidationError
+            raise TrackerConfigError(f"command-line options: {err}".splitlines()[0]) from None
+    return config
+
+
+def run(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from service.poselog import PoseLogWriter
+    from service.video import open_videos, read_image
+    from tracker.camera import check_image_size, load_cameras
+    from tracker.pipeline import Tracker
+
+    if not (0.5 <= args.height <= 2.5):
+        raise TrackArgumentError(f"--height must be between 0.5 and 2.5 metres, not {args.height}")
+    if args.max_frames is not None and args.max_frames < 1:
+        raise TrackArgumentError(f"--max-frames must be >= 1, not {args.max_frames}")
+    cameras = load_cameras(args.camera)
+    if len(args.videos) != len(cameras):
+        raise TrackArgumentError(
+            f"{len(args.videos)} video(s) for {len(cameras)} --camera file(s): give one per camera"
+        )
+    backgrounds = None
+    if args.background:
+        if len(args.background) != len(cameras):
+            raise TrackArgumentError(
+                f"{len(args.background)} --background image(s) for {len(cameras)} camera(s): "
+                "give one per camera"
+            )
+        backgrounds = []
+        for cam, path in zip(cameras, args.background, strict=True):
+            img = read_image(path)
+            check_image_size(cam, img.shape[1], img.shape[0], what=f"background {path}")
+            backgrounds.append(img)
+    config = build_config(args)
+    if args.threads is not None:
+        import numba
+
+        if args.threads < 1:
+            raise TrackArgumentError(f"--threads must be >= 1, not {args.threads}")
+        numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
+
+    videos = open_videos(
+        args.videos, cameras, on_length_mismatch="stop" if args.allow_length_mismatch else "error"
+    )
+    rng = np.random.default_rng(args.seed)
+    try:
+        tracker = Tracker(cameras, config, rng=rng, height_m=args.height, backgrounds=backgrounds)
+    except BaseException:
+        videos.close()
+        raise
+    settings = {
+        "tracker": config.model_dump(mode="json"),
+        "seed": args.seed,
+        "videos": [str(v) for v in args.videos],
+        "backgrounds": list(args.background or []),
+    }
+    total = videos.frame_count
+    if args.max_frames is not None:
+        total = min(total, args.max_frames) if total else args.max_frames
+    out = Path(args.out)
+    n_pose = n_none = 0
+    t0 = time.perf_counter()
+    with (
+        videos,
+        PoseLogWriter(
+            out,
+            cameras=cameras,
+            body_height_m=args.height,
+            filter_name=tracker.filter_name,
+            settings=settings,
+            fps=cameras[0].fps,
+        ) as writer,
+        tqdm(
+            total=total,
+            unit="frame",
+            desc="track",
+            file=sys.stderr,
+            disable=args.no_progress,
+            dynamic_ncols=True,
+        ) as bar,
+    ):
+        for k, (index, time_s, frames) in enumerate(videos):
+            if args.max_frames is not None and k >= args.max_frames:
+                break
+            res = tracker.process(index, time_s, frames)
+            if res.has_pose:
+                writer.write_frame(
+                    index, time_s, res.joints, res.pose, res.weight, tracker.filter_name
+                )
+                n_pose += 1
+            else:
+                writer.write_no_pose(index, time_s, res.reason)
+                n_none += 1
+            for note in res.notes:
+                writer.write_note(index, time_s, note)
+            bar.update(1)
+            bar.set_postfix(weight=f"{res.weight:.2f}", refresh=False)
+    elapsed = time.perf_counter() - t0
+    n = n_pose + n_none
+    print(
+        f"tracked {n} frame(s): {n_pose} with a pose, {n_none} without; "
+        f"{elapsed:.1f} s ({n / max(elapsed, 1e-9):.1f} frames/s, filter {tracker.filter_name}) "
+        f"-> {out}"
+    )
+    if videos.length_mismatch:
+        print(f"warning: {videos.length_mismatch}")
+    return 0

@@ -1,0 +1,377 @@
+"""The tracking pipeline: frames -> silhouettes -> body origin -> body parts -> 3D pose.
+
+:class:`Tracker` takes the synchronised frames of all cameras one time step at a time (no file
+I/O: the caller decodes video and writes the pose log) and returns a :class:`FrameResult`:
+
+1. **Segmentation** per camera (:class:`tracker.segmentation.Segmenter`), silhouettes at the
+   likelihood resolution. No silhouette above the minimum size in any camera -> no pose
+   ("nobody in view"), and the track is re-initialised when someone appears.
+2. **Blob choice**: with several blobs in a camera, keep the one consistent with the track — the
+   largest overlap with the previous estimate's model mask, else the centroid closest to the
+   projected predicted sacrum; without a track, the largest blob. Blobs lying mostly inside the
+   predicted model (a person split in two by the segmentation) are kept with it. Logged.
+3. **Initialisation** (first frame, after nobody was in view, after loss): the exhaustive search of
+   :mod:`tracker.init` seeds the filter, followed by one filter step.
+4. Otherwise the **origin search** (:mod:`tracker.origin`) moves the root, holding the previous
+   body-part configuration, then the **filter** (IPF, APF or Condensation) updates the body parts.
+5. **Lost track**: best weight below ``lost_weight`` for ``lost_frames`` frames in a row ->
+   re-initialise on that frame (kept if it weighs more than the filter's estimate).
+
+Memory does not grow with the length of the footage: the tracker keeps one particle set and the
+previous estimate. Every random draw comes from the injected generator.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from gaitwatch.conventions import SACRUM
+from tracker.config import TrackerConfig
+from tracker.dof import DOF, N_DOF
+from tracker.filters import Filter, make_filter
+from tracker.init import initial_search
+from tracker.origin import search_origin
+from tracker.segmentation import Segmentation, Segmenter, keep_blobs
+
+log = logging.getLogger(__name__)
+
+NOBODY_IN_VIEW = "nobody in view"
+NO_FLOOR_POINT = "silhouette does not meet the floor in any camera"
+
+_MAX_SPEED_M_S = 2.5
+
+
+@dataclass
+class FrameResult:
+    """What the tracker found in one frame.
+
+    Attributes
+    ----------
+    frame_index : int
+    time_s : float
+    pose : ndarray (31,) or None
+        Metres / radians (:mod:`tracker.dof`); None when no pose (see ``reason``).
+    joints : ndarray (19, 3) or None
+        World frame, metres, CONVENTIONS key-point order.
+    weight : float
+        Likelihood weight of the estimate (0 without a pose).
+    status : str
+        "tracked", "initialised", "reinitialised" or "no_pose".
+    reason : str
+        Why there is no pose.
+    notes : list of str
+        Remarks worth logging (several blobs and which one was followed, re-initialisation).
+    evaluations : int
+        Likelihood evaluations spent on this frame (origin search, filter, initialisation).
+    """
+
+    frame_index: int
+    time_s: float
+    pose: np.ndarray | None
+    joints: np.ndarray | None
+    weight: float
+    status: str
+    reason: str = ""
+    notes: list[str] = field(default_factory=list)
+    evaluations: int = 0
+
+    @property
+    def has_pose(self) -> bool:
+        return self.pose is not None
+
+
+class _CountingLikelihood:
+    """Counts the poses weighed (for the per-frame evaluation figures)."""
+
+    def __init__(self, inner) -> None:
+        self.inner = inner
+        self.count = 0
+        if hasattr(inner, "weights_factored"):
+            self.weights_factored = self._factored
+
+    def weights(self, poses: np.ndarray) -> np.ndarray:
+        self.count += poses.shape[0]
+        return self.inner.weights(poses)
+
+    def _factored(self, base, left, right) -> np.ndarray:
+        self.count += base.shape[0] * left.shape[1] * right.shape[1]
+        return self.inner.weights_factored(base, left, right)
+
+
+class Tracker:
+    """Markerless tracking of one person from synchronised cameras.
+
+    Parameters
+    ----------
+    cameras : sequence of tracker.camera.Camera
+        At the footage's resolution, in the order of the frames passed to :meth:`process`.
+    config : TrackerConfig
+    rng : numpy.random.Generator
+        The only source of randomness (filters, no other draws).
+    height_m : float
+        The resident's height; scales the body model when ``body`` is not given.
+    backgrounds : sequence of ndarray or None, optional
+        Empty-scene images per camera (uint8 BGR). Without them, static segmentation falls back
+        to the adaptive ``mog2`` mode learned from the footage.
+    body : tracker.body.BodyModel, optional
+    likelihood : optional
+        A likelihood over ``cameras`` scaled to ``config.likelihood_size`` (default:
+        :class:`tracker.likelihood.SilhouetteLikelihood`); must offer ``set_silhouettes``,
+        ``weights`` and, for the blob choice, ``render_mask``.
+    """
+
+    def __init__(
+        self,
+        cameras: Sequence,
+        config: TrackerConfig | None = None,
+        *,
+        rng: np.random.Generator,
+        height_m: float = 1.70,
+        backgrounds: Sequence[np.ndarray | None] | None = None,
+        body=None,
+        likelihood=None,
+    ) -> None:
+        self.config = config or TrackerConfig()
+        c = self.config
+        if not cameras:
+            raise ValueError("at least one camera is needed")
+        self.cameras = list(cameras)
+        w, h = c.likelihood_size
+        self.lik_cameras = [cam.scaled(w, h) for cam in self.cameras]
+        if body is None:
+            from tracker.body import BodyModel
+
+            body = BodyModel(height_m=height_m)
+        self.body = body
+        if likelihood is None:
+            from tracker.likelihood import SilhouetteLikelihood
+
+            likelihood = SilhouetteLikelihood(body, self.lik_cameras)
+        self.likelihood = likelihood
+        self._lik = _CountingLikelihood(likelihood)
+        self.limits = c.joint_limits().arrays()
+        self.rng = rng
+        self.filter: Filter = make_filter(c.filter, c, rng=rng, limits=self.limits)
+        bgs = list(backgrounds) if backgrounds is not None else [None] * len(self.cameras)
+        if len(bgs) != len(self.cameras):
+            raise ValueError(f"{len(bgs)} background images for {len(self.cameras)} cameras")
+        seg_cfg = c.segmentation.model_copy(update={"output_size": (w, h)})
+        self.segmenters: list[Segmenter] = []
+        for bg in bgs:
+            sc = seg_cfg
+            if bg is None and sc.mode == "static":
+                sc = sc.model_copy(update={"mode": "mog2"})
+            self.segmenters.append(Segmenter(sc, bg))
+        if any(bg is None for bg in bgs) and seg_cfg.mode == "static":
+            log.info("no background image for some cameras: learning the background (mog2)")
+        self.dt_default = 1.0 / float(self.cameras[0].fps)
+        # track state
+        self.prev_pose: np.ndarray | None = None
+        self.prev_time: float | None = None
+        self.velocity_xy = np.zeros(2)
+        self.low_count = 0
+        self.need_init = True
+
+    # -- public -----------------------------------------------------------------------------
+    @property
+    def filter_name(self) -> str:
+        return self.filter.name
+
+    def segment(self, frames: Sequence[np.ndarray]) -> list[Segmentation]:
+        """Segment one synchronised set of frames (one per camera)."""
+        if len(frames) != len(self.segmenters):
+            raise ValueError(f"{len(frames)} frames for {len(self.segmenters)} cameras")
+        return [s.apply(f) for s, f in zip(self.segmenters, frames, strict=True)]
+
+    def process(self, frame_index: int, time_s: float, frames: Sequence[np.ndarray]) -> FrameResult:
+        """Track one time step from the raw frames of every camera."""
+        return self.process_segmentations(frame_index, time_s, self.segment(frames))
+
+    def process_segmentations(
+        self, frame_index: int, time_s: float, segs: Sequence[Segmentation]
+    ) -> FrameResult:
+        """Track one time step from already segmented frames (one per camera)."""
+        self._lik.count = 0
+        notes: list[str] = []
+        if all(s.empty for s in segs):
+            return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW)
+        segs = [self._choose_blobs(i, s, notes) for i, s in enumerate(segs)]
+        masks = [s.mask for s in segs]
+        if sum(int(m.sum()) for m in masks) < self.config.min_silhouette_px:
+            return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW + " (silhouette too small)")
+        self.likelihood.set_silhouettes(masks)
+        dt = self._dt(time_s)
+        if self.need_init:
+            status = "initialised" if self.prev_time is None else "reinitialised"
+            est = self._initialise(masks, dt)
+            if est is None:
+                return self._no_pose(frame_index, time_s, NO_FLOOR_POINT)
+            notes.append(f"{status} the track (weight {est[1]:.3f})")
+            pose, weight = est
+        else:
+            status = "tracked"
+            pose, weight = self._track(dt)
+            if weight < self.config.lost_weight:
+                self.low_count += 1
+                if self.low_count >= self.config.lost_frames:
+                    prev_weight = weight
+                    re = self._initialise(masks, dt)
+                    if re is not None and re[1] > prev_weight:
+                        pose, weight = re
+                        status = "reinitialised"
+                    notes.append(
+                        f"track lost ({self.low_count} frames below weight "
+                        f"{self.config.lost_weight}): re-initialised, weight {weight:.3f}"
+                    )
+                    self.low_count = 0
+            else:
+                self.low_count = 0
+        joints = np.asarray(self.body.forward(pose[None]))[0]
+        self._remember(pose, time_s, dt, continuous=status == "tracked")
+        for n in notes:
+            log.info("frame %d: %s", frame_index, n)
+        return FrameResult(
+            frame_index=int(frame_index),
+            time_s=float(time_s),
+            pose=pose,
+            joints=joints,
+            weight=float(weight),
+            status=status,
+            notes=notes,
+            evaluations=self._lik.count,
+        )
+
+    # -- steps ------------------------------------------------------------------------------
+    def _dt(self, time_s: float) -> float:
+        if self.prev_time is not None and time_s > self.prev_time:
+            return float(time_s - self.prev_time)
+        return self.dt_default
+
+    def _initialise(self, masks: list[np.ndarray], dt: float) -> tuple[np.ndarray, float] | None:
+        res = initial_search(
+            self._lik,
+            self.body,
+            self.lik_cameras,
+            masks,
+            self.config,
+            limits=self.limits,
+            dt=dt,
+        )
+        if res is None:
+            return None
+        self.filter.initialise(res.poses, res.weights)
+        est = self.filter.step(self._lik, dt)
+        self.need_init = False
+        self.low_count = 0
+        self.velocity_xy = np.zeros(2)
+        if est.weight >= res.best_weight:
+            return est.pose, est.weight
+        return res.best.copy(), res.best_weight
+
+    def _track(self, dt: float) -> tuple[np.ndarray, float]:
+        assert self.prev_pose is not None
+        c = self.config
+        if c.origin.enabled:
+            origin = search_origin(
+                self._lik,
+                self.prev_pose,
+                c.origin,
+                limits=self.limits,
+                dt=dt,
+                reference_dt=c.reference_dt_s,
+                velocity_xy=self.velocity_xy,
+            )
+            self.filter.set_root(origin.pose[:6])
+        est = self.filter.step(self._lik, dt)
+        return est.pose, est.weight
+
+    def _remember(self, pose: np.ndarray, time_s: float, dt: float, *, continuous: bool) -> None:
+        if not continuous or self.prev_pose is None:
+            self.velocity_xy = np.zeros(2)
+        else:
+            v = (pose[[DOF["root_x"], DOF["root_y"]]] - self.prev_pose[[0, 1]]) / dt
+            speed = float(np.hypot(*v))
+            if speed > _MAX_SPEED_M_S:
+                v *= _MAX_SPEED_M_S / speed
+            self.velocity_xy = v
+        self.prev_pose = pose.copy()
+        self.prev_time = float(time_s)
+
+    def _no_pose(self, frame_index: int, time_s: float, reason: str) -> FrameResult:
+        self.need_init = True
+        self.prev_pose = None
+        self.prev_time = float(time_s)
+        self.velocity_xy = np.zeros(2)
+        self.low_count = 0
+        log.debug("frame %d: no pose (%s)", frame_index, reason)
+        return FrameResult(
+            frame_index=int(frame_index),
+            time_s=float(time_s),
+            pose=None,
+            joints=None,
+            weight=0.0,
+            status="no_pose",
+            reason=reason,
+            evaluations=self._lik.count,
+        )
+
+    def _choose_blobs(self, cam: int, seg: Segmentation, notes: list[str]) -> Segmentation:
+        """Keep the blob(s) consistent with the track when a camera sees several."""
+        if len(seg.blobs) <= 1:
+            return seg
+        name = self.cameras[cam].name
+        if self.prev_pose is None or self.need_init:
+            main = seg.blobs[0]  # largest first
+            x0, _, bw, _ = main.bbox
+            keep = [
+                b
+                for b in seg.blobs
+                if b is main or (b.bbox[0] < x0 + bw and b.bbox[0] + b.bbox[2] > x0)
+            ]
+            why = "largest (no track yet)"
+        else:
+            pred = self._predicted_mask(cam, seg)
+            areas = np.array([b.area for b in seg.blobs], dtype=np.float64)
+            overlap = np.bincount(seg.labels[pred].ravel(), minlength=seg.labels.max() + 1)
+            ov = np.array([overlap[b.label] for b in seg.blobs], dtype=np.float64)
+            if ov.max() > 0:
+                best = int(np.argmax(ov))
+                why = f"largest overlap with the track's model ({int(ov[best])} px)"
+            else:
+                centre = self.cameras[cam].project(self._predicted_sacrum())
+                d = [np.hypot(*(np.asarray(b.centroid) - centre)) for b in seg.blobs]
+                d = np.nan_to_num(np.asarray(d), nan=np.inf)
+                best = int(np.argmin(d))
+                why = f"closest to the track ({d[best]:.0f} px)"
+            keep = [b for i, b in enumerate(seg.blobs) if i == best or ov[i] >= 0.3 * areas[i]]
+            main = seg.blobs[best]
+        cx, cy = main.centroid
+        notes.append(
+            f"camera {name}: {len(seg.blobs)} blobs, following the one at ({cx:.0f}, {cy:.0f}) "
+            f"[{why}]"
+            + (f" with {len(keep) - 1} part(s) inside the model" if len(keep) > 1 else "")
+        )
+        return keep_blobs(seg, keep)
+
+    def _predicted_sacrum(self) -> np.ndarray:
+        assert self.prev_pose is not None
+        p = self.prev_pose.copy()
+        p[[0, 1]] += self.velocity_xy * self.dt_default
+        return np.asarray(self.body.forward(p[None]))[0, SACRUM]
+
+    def _predicted_mask(self, cam: int, seg: Segmentation) -> np.ndarray:
+        """The previous estimate's model mask, at the segmentation's full resolution (bool)."""
+        assert self.prev_pose is not None
+        p = self.prev_pose.copy()
+        p[[0, 1]] += self.velocity_xy * self.dt_default
+        small = np.asarray(self.likelihood.render_mask(p, cam), dtype=np.uint8)
+        h, w = seg.labels.shape
+        return cv2.resize(small, (w, h), interpolation=cv2.INTER_NEAREST).astype(bool)
+
+
+__all__ = ["NOBODY_IN_VIEW", "FrameResult", "Tracker", "N_DOF"]
