@@ -1,0 +1,190 @@
+"""Body model: anthropometry, forward kinematics, DOF signs, joint limits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gaitwatch.conventions import BONE_INDICES, KP, N_KEYPOINTS
+from tracker.body import N_CAPSULES, SEGMENT_NAMES, BodyModel
+from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, JointLimits, clamp
+
+
+@pytest.fixture(scope="module")
+def body() -> BodyModel:
+    return BodyModel(1.70)
+
+
+def _random_poses(body: BodyModel, rng: np.random.Generator, n: int, profile: str) -> np.ndarray:
+    lo, hi = JointLimits.profile(profile).arrays()
+    poses = rng.uniform(lo, hi, (n, N_DOF))
+    poses[:, :2] = rng.uniform(-3, 3, (n, 2))
+    poses[:, 2] = rng.uniform(0.6, 1.2, n)
+    return poses
+
+
+def _bone_lengths(kp: np.ndarray) -> np.ndarray:
+    a = np.array([i for i, _ in BONE_INDICES])
+    b = np.array([j for _, j in BONE_INDICES])
+    return np.linalg.norm(kp[:, a] - kp[:, b], axis=-1)
+
+
+@pytest.mark.parametrize("height", [1.50, 1.70, 1.92])
+def test_neutral_pose_stands_on_the_floor(height: float) -> None:
+    body = BodyModel(height)
+    kp = body.forward(body.neutral_pose(x=1.0, y=-2.0, yaw=0.7))[0]
+    for name in ("left_heel", "right_heel", "left_toe", "right_toe"):
+        assert kp[KP[name], 2] == pytest.approx(0.0, abs=1e-9)
+    assert kp[KP["sacrum"], 2] == pytest.approx(body.root_height)
+    # head centre ~0.936 H (Winter), knee ~0.285 H, shoulder ~0.818 H
+    assert kp[KP["head"], 2] == pytest.approx(0.936 * height, abs=0.01 * height)
+    assert kp[KP["left_knee"], 2] == pytest.approx(0.285 * height, abs=0.005 * height)
+    assert kp[KP["left_shoulder"], 2] == pytest.approx(0.818 * height, abs=0.005 * height)
+    assert kp[KP["sacrum"], :2] == pytest.approx([1.0, -2.0])
+    assert body.segment_lengths["thigh"] == pytest.approx((0.530 - 0.285) * height)
+
+
+def test_left_is_plus_y_when_facing_plus_x(body: BodyModel) -> None:
+    kp = body.forward(body.neutral_pose())[0]
+    for joint in ("shoulder", "elbow", "wrist", "hip", "knee", "ankle", "heel", "toe"):
+        assert kp[KP[f"left_{joint}"], 1] > 0 > kp[KP[f"right_{joint}"], 1], joint
+    assert kp[KP["left_toe"], 0] > kp[KP["left_heel"], 0]  # feet point to +x
+    assert kp[KP["head"], 0] > kp[KP["neck"], 0]  # the face is in front of C7
+    # turned to face +y: the left is now -x
+    kp = body.forward(body.neutral_pose(yaw=np.pi / 2))[0]
+    assert kp[KP["left_hip"], 0] < 0 < kp[KP["right_hip"], 0]
+    assert kp[KP["left_toe"], 1] > kp[KP["left_heel"], 1]
+
+
+def test_bone_lengths_preserved_for_random_poses(body: BodyModel) -> None:
+    rng = np.random.default_rng(0)
+    poses = _random_poses(body, rng, 500, "general")
+    ref = _bone_lengths(body.forward(body.neutral_pose()))[0]
+    lengths = _bone_lengths(body.forward(poses))
+    np.testing.assert_allclose(lengths, np.broadcast_to(ref, lengths.shape), atol=1e-9)
+    # and the heel-to-toe distance (same rigid foot)
+    kp = body.forward(poses)
+    d = np.linalg.norm(kp[:, KP["left_toe"]] - kp[:, KP["left_heel"]], axis=-1)
+    np.testing.assert_allclose(d, body.segment_lengths["heel_to_toe"], atol=1e-9)
+
+
+def test_batch_equals_one_at_a_time(body: BodyModel) -> None:
+    poses = _random_poses(body, np.random.default_rng(1), 37, "general")
+    batch = body.forward(poses)
+    assert batch.shape == (37, N_KEYPOINTS, 3)
+    for i in (0, 17, 36):
+        np.testing.assert_array_equal(batch[i], body.forward(poses[i])[0])
+    a, b = body.capsules(poses)
+    assert a.shape == b.shape == (37, N_CAPSULES, 3)
+    assert body.radii.shape == (N_CAPSULES, 2)
+    assert len(SEGMENT_NAMES) == 17
+
+
+def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    cos = np.sum(u * v, axis=-1) / np.linalg.norm(u, axis=-1) / np.linalg.norm(v, axis=-1)
+    return np.degrees(np.arccos(np.clip(cos, -1, 1)))
+
+
+def test_clamped_poses_respect_the_limits(body: BodyModel) -> None:
+    rng = np.random.default_rng(2)
+    limits = JointLimits.profile("walking").with_overrides({"l_knee_flexion": (5.0, 70.0)})
+    lo, hi = limits.arrays()
+    poses = rng.normal(0, 2.0, (400, N_DOF))  # far outside every range
+    poses[:, 2] = rng.uniform(-1, 3, 400)
+    clamp(poses, lo, hi)
+    assert np.all(poses >= lo - 1e-12) and np.all(poses <= hi + 1e-12)
+    # The geometry agrees: the knee angle measured on the key points is the knee flexion DOF.
+    kp = body.forward(poses)
+    for side, dof in (("left", "l_knee_flexion"), ("right", "r_knee_flexion")):
+        thigh = kp[:, KP[f"{side}_knee"]] - kp[:, KP[f"{side}_hip"]]
+        shank = kp[:, KP[f"{side}_ankle"]] - kp[:, KP[f"{side}_knee"]]
+        measured = _angle(thigh, shank)
+        np.testing.assert_allclose(measured, np.degrees(poses[:, DOF[dof]]), atol=1e-4)
+        low, high = limits.ranges[dof]
+        assert measured.min() >= low - 1e-4 and measured.max() <= high + 1e-4
+    elbow_l = _angle(
+        kp[:, KP["left_elbow"]] - kp[:, KP["left_shoulder"]],
+        kp[:, KP["left_wrist"]] - kp[:, KP["left_elbow"]],
+    )
+    np.testing.assert_allclose(elbow_l, np.degrees(poses[:, DOF["l_elbow_flexion"]]), atol=1e-4)
+
+
+# (DOF, angle in degrees, key point, axis, expected sign of its displacement) from the neutral
+# pose facing +x with the left towards +y (signs of tracker/dof.py).
+SIGNS = [
+    ("l_hip_flexion", 30, "left_knee", 0, +1),
+    ("r_hip_flexion", 30, "right_knee", 0, +1),
+    ("l_hip_abduction", 20, "left_knee", 1, +1),
+    ("r_hip_abduction", 20, "right_knee", 1, -1),
+    ("l_ankle_flexion", 20, "left_toe", 2, +1),
+    ("r_ankle_flexion", -20, "right_toe", 2, -1),
+    ("l_ankle_rotation", 20, "left_toe", 1, -1),  # internal: toes turn in
+    ("r_ankle_rotation", 20, "right_toe", 1, +1),
+    ("l_shoulder_flexion", 40, "left_elbow", 0, +1),
+    ("l_shoulder_abduction", 40, "left_elbow", 1, +1),
+    ("r_shoulder_abduction", 40, "right_elbow", 1, -1),
+    ("l_elbow_flexion", 60, "left_wrist", 0, +1),
+    ("trunk_flexion", 20, "neck", 0, +1),
+    ("trunk_lateral", 15, "neck", 1, +1),
+    ("trunk_rotation", 20, "left_shoulder", 0, -1),  # turning left takes the left shoulder back
+    ("neck_flexion", 20, "head", 0, +1),
+    ("neck_rotation", 30, "head", 1, +1),
+    ("root_pitch", 15, "neck", 0, +1),
+    ("root_roll", 10, "left_hip", 2, +1),
+    ("root_yaw", 30, "left_hip", 0, -1),
+]
+
+
+@pytest.mark.parametrize(("dof", "deg", "point", "axis", "sign"), SIGNS)
+def test_dof_signs(body: BodyModel, dof: str, deg: float, point: str, axis: int, sign: int) -> None:
+    p0 = body.neutral_pose()
+    p1 = p0.copy()
+    p1[DOF[dof]] = np.radians(deg)
+    moved = body.forward(p1)[0, KP[point], axis] - body.forward(p0)[0, KP[point], axis]
+    assert np.sign(moved) == sign and abs(moved) > 0.005
+
+
+def test_knee_flexion_moves_the_ankle_back_and_hip_rotation_with_bent_knee(
+    body: BodyModel,
+) -> None:
+    p = body.neutral_pose()
+    p[DOF["l_knee_flexion"]] = np.radians(90)
+    kp0 = body.forward(p)[0]
+    assert kp0[KP["left_ankle"], 0] < kp0[KP["left_knee"], 0] - 0.3
+    # internal rotation of the hip swings the lower leg outwards when the knee is bent
+    p[DOF["l_hip_rotation"]] = np.radians(20)
+    kp1 = body.forward(p)[0]
+    assert kp1[KP["left_ankle"], 1] > kp0[KP["left_ankle"], 1] + 0.05
+
+
+def test_leg_dofs_move_only_their_leg(body: BodyModel) -> None:
+    rng = np.random.default_rng(3)
+    p0 = _random_poses(body, rng, 1, "walking")[0]
+    p1 = p0.copy()
+    p1[list(LEFT_LEG)] += 0.2
+    d = np.abs(body.points(p1)[0] - body.points(p0)[0]).max(axis=1)
+    moved = np.flatnonzero(d > 1e-12)
+    kp_moved = {i for i in moved if i < N_KEYPOINTS}
+    assert kp_moved == {KP[n] for n in ("left_knee", "left_ankle", "left_heel", "left_toe")}
+    caps = {(int(j) - N_KEYPOINTS) // 2 for j in moved if j >= N_KEYPOINTS}
+    assert caps == set(body.left_leg_capsules.tolist())
+    assert set(RIGHT_LEG).isdisjoint(LEFT_LEG)
+
+
+def test_girth_scales_radii_not_lengths() -> None:
+    a, b = BodyModel(1.7), BodyModel(1.7, girth=1.2)
+    np.testing.assert_allclose(b.radii, 1.2 * a.radii)
+    np.testing.assert_array_equal(a.forward(a.neutral_pose()), b.forward(b.neutral_pose()))
+    tall = BodyModel(1.9)
+    np.testing.assert_allclose(tall.radii, a.radii * 1.9 / 1.7)
+
+
+@pytest.mark.parametrize(("h", "g"), [(0.2, 1.0), (3.0, 1.0), (float("nan"), 1.0), (1.7, 0.0)])
+def test_bad_body_parameters(h: float, g: float) -> None:
+    with pytest.raises(ValueError, match="height_m|girth"):
+        BodyModel(h, g)
+
+
+def test_bad_pose_shape(body: BodyModel) -> None:
+    with pytest.raises(ValueError, match="31"):
+        body.forward(np.zeros((4, 30)))

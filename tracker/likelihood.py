@@ -1,0 +1,217 @@
+"""The silhouette likelihood of a batch of poses: project the fleshed body model into every
+camera, compare with the silhouettes, weight.
+
+Per camera the counts are ``Nc`` (pixels in both the silhouette and the model), ``Ns``
+(silhouette only) and ``Nm`` (model only). The method's weight is ``Nc / (Ns + Nm)``. That ratio
+is unbounded (a perfect match divides by zero), so the default weight is its bounded monotone
+transform, the intersection over union::
+
+    w_cam = Nc / (Nc + Ns + Nm) = r / (1 + r),  r = Nc / (Ns + Nm)
+
+which ranks the poses of one camera exactly as the ratio does, lies in [0, 1] (1 = perfect
+match) and is 0 when nothing is seen anywhere (``Nc + Ns + Nm = 0``). ``measure="ratio"`` gives
+the method's ratio with the denominator floored at one pixel, ``Nc / max(Ns + Nm, 1)`` (a
+perfect match scores Nc). The weight of a pose is the mean of ``w_cam`` over the cameras.
+
+The counting runs in numba (:mod:`tracker.raster`): capsules become row spans OR-ed into
+bit-packed uint64 rows, counted with popcount against the bit-packed silhouette, in parallel
+over the poses. :mod:`tracker.render_ref` is the slow OpenCV reference.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Literal
+
+import numba as nb
+import numpy as np
+
+from tracker import raster
+from tracker.body import BodyModel
+from tracker.camera import Camera
+from tracker.dof import LEFT_LEG, N_DOF, RIGHT_LEG
+
+Measure = Literal["iou", "ratio"]
+
+
+def weight_from_counts(counts: np.ndarray, measure: Measure = "iou") -> np.ndarray:
+    """Weights from counts ``(..., K, 3)`` (Nc, Ns, Nm) -> ``(...)`` float64, mean over cameras.
+
+    See the module docstring for ``measure``.
+    """
+    c = np.asarray(counts, dtype=np.float64)
+    nc, ns, nm = c[..., 0], c[..., 1], c[..., 2]
+    if measure == "iou":
+        den = nc + ns + nm
+        w = np.divide(nc, den, out=np.zeros_like(nc), where=den > 0)
+    elif measure == "ratio":
+        w = nc / np.maximum(ns + nm, 1.0)
+    else:
+        raise ValueError(f"measure must be 'iou' or 'ratio', not {measure!r}")
+    return w.mean(axis=-1)
+
+
+class SilhouetteLikelihood:
+    """Weights of poses against binary silhouettes seen by calibrated cameras.
+
+    Parameters
+    ----------
+    body : BodyModel
+        The fleshed body model.
+    cameras : list of Camera
+        Cameras at the likelihood resolution (e.g. ``cam.scaled(160, 120)``); each silhouette
+        must have that camera's ``(height, width)``.
+    measure : {"iou", "ratio"}
+        Per-camera weight (module docstring). Keyword only.
+    """
+
+    def __init__(
+        self, body: BodyModel, cameras: Sequence[Camera], *, measure: Measure = "iou"
+    ) -> None:
+        if not cameras:
+            raise ValueError("SilhouetteLikelihood needs at least one camera")
+        if measure not in ("iou", "ratio"):
+            raise ValueError(f"measure must be 'iou' or 'ratio', not {measure!r}")
+        self.body = body
+        self.cameras = list(cameras)
+        self.measure: Measure = measure
+        k = len(self.cameras)
+        rows = []
+        for c in self.cameras:
+            try:
+                rows.append(raster.pack_camera(c.R, c.t, c.K, c.dist))
+            except ValueError as err:
+                raise ValueError(f"camera {c.name}: {err}") from None
+        self.cams = np.ascontiguousarray(np.stack(rows))
+        self.cam_hw = np.array([[c.height, c.width] for c in self.cameras], dtype=np.int64)
+        self._hmax = int(self.cam_hw[:, 0].max())
+        self._words = int((self.cam_hw[:, 1].max() + 63) // 64)
+        self._sil: np.ndarray | None = None
+        self._sil_total = np.zeros(k, dtype=np.int64)
+
+    @property
+    def n_cameras(self) -> int:
+        return len(self.cameras)
+
+    def set_silhouettes(self, silhouettes: Sequence[np.ndarray]) -> None:
+        """Set the current frame's silhouettes: one bool ``(H, W)`` array per camera."""
+        if len(silhouettes) != self.n_cameras:
+            raise ValueError(
+                f"expected {self.n_cameras} silhouettes (one per camera), got {len(silhouettes)}"
+            )
+        sil = np.zeros((self.n_cameras, self._hmax, self._words), dtype=np.uint64)
+        total = np.zeros(self.n_cameras, dtype=np.int64)
+        for i, (s, cam) in enumerate(zip(silhouettes, self.cameras, strict=True)):
+            s = np.asarray(s)
+            if s.shape != (cam.height, cam.width):
+                raise ValueError(
+                    f"silhouette {i} has shape {s.shape}, camera {cam.name!r} expects "
+                    f"{(cam.height, cam.width)} (height, width)"
+                )
+            s = s.astype(bool, copy=False)
+            sil[i, : cam.height] = raster.pack_rows(s, self._words)
+            total[i] = int(np.count_nonzero(s))
+        self._sil = sil
+        self._sil_total = total
+
+    def _require_silhouettes(self) -> np.ndarray:
+        if self._sil is None:
+            raise RuntimeError("call set_silhouettes() before counts() or weights()")
+        return self._sil
+
+    def _poses(self, poses: np.ndarray) -> np.ndarray:
+        p = np.asarray(poses, dtype=np.float64)
+        if p.ndim == 1:
+            p = p[None]
+        if p.ndim != 2 or p.shape[1] != N_DOF:
+            raise ValueError(f"poses must have shape (N, {N_DOF}), got {np.shape(poses)}")
+        return np.ascontiguousarray(p)
+
+    def counts(self, poses: np.ndarray) -> np.ndarray:
+        """Pixel counts of poses ``(N, 31)`` -> ``(N, n_cams, 3)`` int64: Nc, Ns, Nm."""
+        sil = self._require_silhouettes()
+        pts = self.body.points(self._poses(poses))
+        b = self.body
+        return raster.counts_kernel(
+            pts,
+            b.cap_ab,
+            b.radii,
+            self.cams,
+            self.cam_hw,
+            sil,
+            self._sil_total,
+            4 * nb.get_num_threads(),
+        )
+
+    def weights(self, poses: np.ndarray) -> np.ndarray:
+        """Weights of poses ``(N, 31)`` -> ``(N,)`` float64, mean over cameras."""
+        return weight_from_counts(self.counts(poses), self.measure)
+
+    def counts_factored(
+        self, base: np.ndarray, left_leg: np.ndarray, right_leg: np.ndarray
+    ) -> np.ndarray:
+        """Counts of every leg combination -> ``(M, A, B, n_cams, 3)``; see weights_factored."""
+        sil = self._require_silhouettes()
+        base = self._poses(base)
+        m = base.shape[0]
+        left = np.asarray(left_leg, dtype=np.float64)
+        right = np.asarray(right_leg, dtype=np.float64)
+        if left.ndim != 3 or left.shape[0] != m or left.shape[2] != len(LEFT_LEG):
+            raise ValueError(f"left_leg must have shape ({m}, A, 6), got {left.shape}")
+        if right.ndim != 3 or right.shape[0] != m or right.shape[2] != len(RIGHT_LEG):
+            raise ValueError(f"right_leg must have shape ({m}, B, 6), got {right.shape}")
+        na, nb_ = left.shape[1], right.shape[1]
+        pl = np.repeat(base[:, None, :], na, axis=1)
+        pl[:, :, list(LEFT_LEG)] = left
+        pr = np.repeat(base[:, None, :], nb_, axis=1)
+        pr[:, :, list(RIGHT_LEG)] = right
+        b = self.body
+        npts = b.n_points
+        pts_base = b.points(base)
+        pts_left = b.points(pl.reshape(-1, N_DOF)).reshape(m, na, npts, 3)
+        pts_right = b.points(pr.reshape(-1, N_DOF)).reshape(m, nb_, npts, 3)
+        return raster.counts_factored_kernel(
+            pts_base,
+            pts_left,
+            pts_right,
+            b.capsule_groups,
+            b.cap_ab,
+            b.radii,
+            self.cams,
+            self.cam_hw,
+            sil,
+            self._sil_total,
+        )
+
+    def weights_factored(
+        self, base: np.ndarray, left_leg: np.ndarray, right_leg: np.ndarray
+    ) -> np.ndarray:
+        """Weights of every combination of left-leg and right-leg variants of base poses.
+
+        Parameters
+        ----------
+        base : np.ndarray
+            ``(M, 31)`` poses.
+        left_leg : np.ndarray
+            ``(M, A, 6)`` values of the DOFs ``tracker.dof.LEFT_LEG`` (indices 19..24).
+        right_leg : np.ndarray
+            ``(M, B, 6)`` values of ``tracker.dof.RIGHT_LEG`` (25..30).
+
+        Returns
+        -------
+        np.ndarray
+            ``(M, A, B)`` float64: the weight of ``base[m]`` with its left-leg DOFs replaced by
+            ``left_leg[m, a]`` and its right-leg DOFs by ``right_leg[m, b]``; equal to
+            :meth:`weights` of those poses. The upper body is rendered once per m and each leg
+            variant once, then the A*B combinations are OR-ed and counted.
+        """
+        return weight_from_counts(self.counts_factored(base, left_leg, right_leg), self.measure)
+
+    def render_mask(self, pose: np.ndarray, camera_index: int) -> np.ndarray:
+        """The model's silhouette of one pose (31,) in one camera: bool ``(H, W)``."""
+        cam = self.cameras[camera_index]
+        k = camera_index
+        pts = self.body.points(self._poses(pose))[0]
+        b = self.body
+        bits = raster.render_one_kernel(pts, b.cap_ab, b.radii, self.cams[k], cam.height, cam.width)
+        return raster.unpack_rows(bits, cam.width)
