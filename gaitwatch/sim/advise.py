@@ -207,6 +207,7 @@ class Advice:
     tracker: str | None = None
     notes: list[str] = field(default_factory=list)
     background: np.ndarray | None = None  # empty scene (H, W, 3) uint8 RGB, for overlays
+    distance_m: tuple[float, float] | None = None  # nearest, farthest measurable floor point
 
     def to_dict(self) -> dict:
         ext = self.region.extent
@@ -221,6 +222,7 @@ class Advice:
                 if not len(self.region.person_px)
                 else [float(self.region.person_px.min()), float(self.region.person_px.max())]
             ),
+            "distance_m": None if self.distance_m is None else list(self.distance_m),
             "tracker": self.tracker,
             "paths": [p.__dict__ for p in self.paths],
             "notes": self.notes,
@@ -314,6 +316,9 @@ def advise(
         tracker=tracker_name
         or (getattr(tracker_fn, "__name__", "tracker") if tracker_fn else None),
     )
+    if len(region.cells):
+        dist = np.linalg.norm(region.cells - camera.center[:2], axis=1)
+        advice.distance_m = (float(dist.min()), float(dist.max()))
     if not len(region.cells):
         advice.notes.append(
             f"no floor area where a whole {person_height_m:.1f} m person is in view and at least "
@@ -408,6 +413,11 @@ def format_advice(advice: Advice) -> str:
             f"  Floor area where gait can be measured: {r.area_m2:.1f} m^2 "
             f"(x {ext[0]:.1f} .. {ext[1]:.1f} m, y {ext[2]:.1f} .. {ext[3]:.1f} m)"
         )
+        if advice.distance_m is not None:
+            lines.append(
+                f"  From {advice.distance_m[0]:.1f} m to {advice.distance_m[1]:.1f} m from the "
+                "camera (horizontal distance)."
+            )
         lines.append(
             f"  A 1.8 m person is {r.person_px.min():.0f} .. {r.person_px.max():.0f} px tall "
             f"there (minimum {advice.min_person_px:.0f} px)."

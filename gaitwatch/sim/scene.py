@@ -91,6 +91,10 @@ class Noise(_Model):
 
     sigma_dn: Annotated[float, Field(ge=0, le=50, description="Gaussian noise, 8-bit units")] = 2.0
     blur_px: Annotated[float, Field(ge=0, le=5, description="Optical blur sigma, pixels")] = 0.6
+    jpeg_quality: Annotated[
+        int | None,
+        Field(ge=5, le=100, description="JPEG round trip per frame (codec artefacts); None = off"),
+    ] = None
 
 
 class Room(_Model):

@@ -290,7 +290,12 @@ def _finish(scene: Scene, img: np.ndarray, gain: float, rng: np.random.Generator
         out += noise
     out += np.float32(0.5)
     np.clip(out, 0, 255, out=out)
-    return out.astype(np.uint8)
+    img8 = out.astype(np.uint8)
+    if nz.jpeg_quality is not None:
+        ok, buf = cv2.imencode(".jpg", img8, [cv2.IMWRITE_JPEG_QUALITY, int(nz.jpeg_quality)])
+        if ok:
+            img8 = cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
+    return img8
 
 
 def compose(

@@ -49,6 +49,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--occluder", choices=("none", "table", "sofa"), default="none")
     p.add_argument("--lighting", choices=("steady", "drift", "switch"), default="drift")
     p.add_argument("--noise", type=float, default=2.0, help="sensor noise sigma (8-bit units)")
+    p.add_argument("--jpeg", type=int, metavar="Q", help="JPEG-compress every frame at quality Q")
     p.add_argument("--fps", type=float, default=25.0)
     p.add_argument("--size", default="640x480", help="image size WxH")
     p.add_argument("--seed", type=int, default=0)
@@ -99,7 +100,7 @@ def _config(args: argparse.Namespace):
             body={"preset": args.shape, "height_m": args.height},
             clothing={"style": args.clothing},
             lighting={"mode": args.lighting},
-            noise={"sigma_dn": args.noise},
+            noise={"sigma_dn": args.noise, "jpeg_quality": args.jpeg},
             room={"occluder": args.occluder},
             masks=args.masks,
             video_format="png" if args.png else "mp4",
@@ -111,7 +112,8 @@ def _config(args: argparse.Namespace):
 
 
 def _place_for_cameras(motion, cameras):
-    """Walk the motion across the first camera's measurable floor, side-on to it."""
+    """Walk the motion across the first camera's measurable floor, side-on to it, centred on the
+    nearer half of that floor area."""
     from gaitwatch.conventions import SACRUM
     from gaitwatch.sim.advise import measurable_floor
     from gaitwatch.sim.motion import place_on_path
@@ -128,7 +130,8 @@ def _place_for_cameras(motion, cameras):
     s = s[np.isfinite(s).all(1)]
     length = float(np.linalg.norm(s[-1] - s[0])) if len(s) > 1 else 0.0
     d = np.array([math.cos(heading), math.sin(heading)])
-    start = region.centroid - 0.5 * length * d
+    near = region.cells[region.person_px >= np.median(region.person_px)]  # the nearer half
+    start = near.mean(0) - 0.5 * length * d
     return place_on_path(motion, (float(start[0]), float(start[1])), heading)
 
 
