@@ -64,6 +64,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true", help="replace a scene already in --out")
     p.add_argument("--advise", action="store_true", help="camera-placement advice for --camera")
     p.add_argument("--min-px", type=float, default=60.0, help="--advise: min person height, px")
+    p.add_argument(
+        "--track",
+        action="store_true",
+        help="--advise: also run the tracker on each rendered walk and report its error (slow)",
+    )
     p.set_defaults(func=run)
 
 
@@ -135,6 +140,37 @@ def _place_for_cameras(motion, cameras):
     return place_on_path(motion, (float(start[0]), float(start[1])), heading)
 
 
+def tracker_callable(seed: int = 0):
+    """A ``tracker_fn`` for :func:`gaitwatch.sim.advise.advise`: the default tracker
+    (``tracker.pipeline.Tracker``) on a rendered clip, given the empty-scene backgrounds and the
+    true stature."""
+    from gaitwatch.trajectory import Trajectory
+    from tracker.pipeline import Tracker
+
+    def track(clip) -> Trajectory:
+        tracker = Tracker(
+            clip.cameras,
+            rng=np.random.default_rng(seed),
+            height_m=float(clip.scene.body.stature_m),
+            backgrounds=[np.ascontiguousarray(b[..., ::-1]) for b in clip.backgrounds],
+        )
+        frames, times, joints = [], [], []
+        for k in range(len(clip.truth)):
+            res = tracker.process(
+                k, k / clip.fps, [np.ascontiguousarray(f[k][..., ::-1]) for f in clip.frames]
+            )
+            if res.has_pose:
+                frames.append(k)
+                times.append(k / clip.fps)
+                joints.append(res.joints)
+        if not frames:
+            return Trajectory(positions=np.zeros((0, 19, 3)), times=np.zeros(0), frames=[])
+        return Trajectory(positions=np.stack(joints), times=np.array(times), frames=frames)
+
+    track.__name__ = f"tracker (seed {seed})"
+    return track
+
+
 def run(args: argparse.Namespace) -> int:
     import cv2
 
@@ -152,7 +188,8 @@ def run(args: argparse.Namespace) -> int:
         reports = []
         for cam in cameras:
             acfg = cfg.model_copy(update={"fps": min(cfg.fps, 15.0)})
-            adv = advise(cam, motion=motion, config=acfg, min_person_px=args.min_px)
+            fn = tracker_callable(args.seed) if args.track else None
+            adv = advise(cam, fn, motion=motion, config=acfg, min_person_px=args.min_px)
             print(format_advice(adv))
             reports.append(adv)
         if args.out:
