@@ -61,11 +61,13 @@ def test_trends_day_week_month_with_baseline(world: World) -> None:
     assert day["baseline"]["n_days"] >= 7
 
     week = c.get(q + "&bucket=week", headers=h).json()
-    first = week["points"][0]  # 2026-01-01 is a Thursday: clipped week Thu..Sun
-    assert first["start"] == "2026-01-01" and first["end"] == "2026-01-04"
+    first = week["points"][0]  # 2026-01-01 is a Thursday: its ISO week starts on 29 December
+    assert first["start"] == "2025-12-29" and first["end"] == "2026-01-04"
     pooled = [v for d, vs in speeds.items() if d <= dt.date(2026, 1, 4) for v in vs]
     assert first["count"] == 12 and first["median"] == pytest.approx(np.median(pooled))
+    assert first["q3"] == pytest.approx(np.percentile(pooled, 75))
     assert week["points"][1]["start"] == "2026-01-05"  # Monday
+    assert len(week["points"]) == 11
 
     month = c.get(q + "&bucket=month", headers=h).json()
     assert [m["start"] for m in month["points"]] == ["2026-01-01", "2026-02-01", "2026-03-01"]

@@ -13,11 +13,11 @@ from service.config import AlertRules
 from service.db.baselines import BaselineRule, rolling_baselines
 from service.db.ingest import IngestError, ingest
 from service.db.models import (
+    Aggregate,
     Alert,
     Baseline,
     Bout,
     Camera,
-    DailyAggregate,
     Fall,
     Recording,
     Resident,
@@ -122,11 +122,19 @@ def test_daily_aggregates_are_median_and_quartiles_of_the_local_day(sessions, ri
         with sessions() as s:
             ingest(s, recording(rid, n, start=start + dt.timedelta(minutes=n)), res)
     with sessions() as s:
-        agg = s.scalar(select(DailyAggregate).where(DailyAggregate.metric == "walking_speed_m_s"))
-        assert agg.day == dt.date(2026, 3, 2)
+        aggs = {
+            a.period: a
+            for a in s.scalars(select(Aggregate).where(Aggregate.metric == "walking_speed_m_s"))
+        }
+        assert set(aggs) == {"day", "week", "month"}
+        agg = aggs["day"]
+        assert agg.start == dt.date(2026, 3, 2)
+        assert aggs["week"].start == dt.date(2026, 3, 2)  # a Monday
+        assert aggs["month"].start == dt.date(2026, 3, 1)
+        assert aggs["week"].median == agg.median
         q1, med, q3 = np.percentile(speeds, [25, 50, 75])
         assert (agg.median, agg.q1, agg.q3, agg.count) == pytest.approx((med, q1, q3, 12))
-        n_metrics = s.scalar(select(func.count(func.distinct(DailyAggregate.metric))))
+        n_metrics = s.scalar(select(func.count(func.distinct(Aggregate.metric))))
         assert n_metrics == 10
 
 
@@ -150,7 +158,9 @@ def test_tug_transfers_and_falls_are_stored(sessions, rid) -> None:
         assert fall.long_lie and fall.lie_duration_s == 120.0
         kinds = sorted(a.kind for a in s.scalars(select(Alert)))
         assert kinds == ["fall", "slow_tug"]
-        tug_agg = s.scalar(select(DailyAggregate).where(DailyAggregate.metric == "tug_time_s"))
+        tug_agg = s.scalar(
+            select(Aggregate).where(Aggregate.metric == "tug_time_s", Aggregate.period == "day")
+        )
         assert tug_agg.median == pytest.approx(14.2) and tug_agg.count == 1
 
 

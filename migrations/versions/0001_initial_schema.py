@@ -2,7 +2,7 @@
 
 Revision ID: 0001
 Revises: 
-Create Date: 2026-11-21 18:21:11.167838
+Create Date: 2026-11-21 18:39:04.669667
 """
 
 from __future__ import annotations
@@ -11,8 +11,6 @@ from collections.abc import Sequence
 
 import sqlalchemy as sa
 from alembic import op
-
-
 
 revision: str = '0001'
 down_revision: str | None = None
@@ -55,6 +53,18 @@ def upgrade() -> None:
     sa.Column('updated_at', sa.DateTime(), nullable=False),
     sa.PrimaryKeyConstraint('id', name=op.f('pk_residents'))
     )
+    op.create_table('aggregates',
+    sa.Column('resident_id', sa.Integer(), nullable=False),
+    sa.Column('metric', sa.String(length=64), nullable=False),
+    sa.Column('period', sa.String(length=8), nullable=False),
+    sa.Column('start', sa.Date(), nullable=False),
+    sa.Column('median', sa.Float(), nullable=False),
+    sa.Column('q1', sa.Float(), nullable=False),
+    sa.Column('q3', sa.Float(), nullable=False),
+    sa.Column('count', sa.Integer(), nullable=False),
+    sa.ForeignKeyConstraint(['resident_id'], ['residents.id'], name=op.f('fk_aggregates_resident_id_residents'), ondelete='CASCADE'),
+    sa.PrimaryKeyConstraint('resident_id', 'metric', 'period', 'start', name=op.f('pk_aggregates'))
+    )
     op.create_table('api_key_residents',
     sa.Column('api_key_id', sa.Integer(), nullable=False),
     sa.Column('resident_id', sa.Integer(), nullable=False),
@@ -90,17 +100,6 @@ def upgrade() -> None:
     with op.batch_alter_table('cameras', schema=None) as batch_op:
         batch_op.create_index(batch_op.f('ix_cameras_resident_id'), ['resident_id'], unique=False)
 
-    op.create_table('daily_aggregates',
-    sa.Column('resident_id', sa.Integer(), nullable=False),
-    sa.Column('metric', sa.String(length=64), nullable=False),
-    sa.Column('day', sa.Date(), nullable=False),
-    sa.Column('median', sa.Float(), nullable=False),
-    sa.Column('q1', sa.Float(), nullable=False),
-    sa.Column('q3', sa.Float(), nullable=False),
-    sa.Column('count', sa.Integer(), nullable=False),
-    sa.ForeignKeyConstraint(['resident_id'], ['residents.id'], name=op.f('fk_daily_aggregates_resident_id_residents'), ondelete='CASCADE'),
-    sa.PrimaryKeyConstraint('resident_id', 'metric', 'day', name=op.f('pk_daily_aggregates'))
-    )
     op.create_table('recordings',
     sa.Column('id', sa.Integer(), nullable=False),
     sa.Column('resident_id', sa.Integer(), nullable=False),
@@ -244,13 +243,13 @@ def downgrade() -> None:
         batch_op.drop_index(batch_op.f('ix_recordings_resident_id'))
 
     op.drop_table('recordings')
-    op.drop_table('daily_aggregates')
     with op.batch_alter_table('cameras', schema=None) as batch_op:
         batch_op.drop_index(batch_op.f('ix_cameras_resident_id'))
 
     op.drop_table('cameras')
     op.drop_table('baselines')
     op.drop_table('api_key_residents')
+    op.drop_table('aggregates')
     op.drop_table('residents')
     with op.batch_alter_table('audit_log', schema=None) as batch_op:
         batch_op.drop_index('ix_audit_log_resident_at')

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 
 from service.commands._dbcommon import add_db_option
 
@@ -21,6 +22,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="upgrade an out-of-date schema first (after a backup copy) instead of refusing",
     )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="server processes (default 1; SQLite copes with a few)",
+    )
     p.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"])
     p.set_defaults(func=run)
 
@@ -29,19 +36,26 @@ def run(args: argparse.Namespace) -> int:
     import uvicorn
 
     from service.api.app import create_app
-    from service.config import load_settings
+    from service.config import ENV_PREFIX, load_settings
 
     settings = load_settings(
         host=args.host, port=args.port, database_url=args.db, auto_upgrade=args.upgrade
     )
     app = create_app(settings)  # refuses an out-of-date schema with a clear error
     log.info("serving on http://%s:%d", settings.host, settings.port)
-    uvicorn.run(
-        app,
+    common = dict(
         host=settings.host,
         port=settings.port,
         log_level=args.log_level,
         access_log=False,
         proxy_headers=False,
     )
+    if args.workers <= 1:
+        uvicorn.run(app, **common)
+        return 0
+    # Several processes: each builds its app from the environment; the schema is current now.
+    app.state.engine.dispose()
+    os.environ[ENV_PREFIX + "DATABASE_URL"] = settings.db_url
+    os.environ[ENV_PREFIX + "AUTO_UPGRADE"] = "0"
+    uvicorn.run("service.api.app:create_app", factory=True, workers=args.workers, **common)
     return 0

@@ -19,7 +19,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from sqlalchemy import delete, select
 from sqlalchemy.orm import Session
 
-from service.db.models import AGGREGATE_METRICS, Baseline, DailyAggregate, utcnow
+from service.db.models import AGGREGATE_METRICS, Aggregate, Baseline, utcnow
 
 
 @dataclass(frozen=True)
@@ -102,8 +102,10 @@ def update_baselines(
     """
     metrics = metrics or AGGREGATE_METRICS
     rows = session.execute(
-        select(DailyAggregate.metric, DailyAggregate.day, DailyAggregate.median).where(
-            DailyAggregate.resident_id == resident_id, DailyAggregate.metric.in_(metrics)
+        select(Aggregate.metric, Aggregate.start, Aggregate.median).where(
+            Aggregate.resident_id == resident_id,
+            Aggregate.period == "day",
+            Aggregate.metric.in_(metrics),
         )
     ).all()
     by_metric: dict[str, list[tuple[int, float]]] = {}

@@ -21,11 +21,11 @@ from sqlalchemy.orm import Session
 from gaitwatch.errors import InputError
 from service.db import audit
 from service.db.models import (
+    Aggregate,
     Alert,
     Baseline,
     Bout,
     Camera,
-    DailyAggregate,
     Fall,
     Recording,
     Resident,
@@ -96,8 +96,8 @@ def erase_resident(session: Session, resident_id: int, *, actor: str) -> Erasure
             ("transfers", delete(Transfer).where(Transfer.resident_id == resident_id)),
             ("falls", delete(Fall).where(Fall.resident_id == resident_id)),
             (
-                "daily_aggregates",
-                delete(DailyAggregate).where(DailyAggregate.resident_id == resident_id),
+                "aggregates",
+                delete(Aggregate).where(Aggregate.resident_id == resident_id),
             ),
             ("baselines", delete(Baseline).where(Baseline.resident_id == resident_id)),
             ("alerts", delete(Alert).where(Alert.resident_id == resident_id)),

@@ -40,12 +40,12 @@ from gaitwatch.errors import InputError
 from service.config import AlertRules
 from service.db import aggregates, audit, baselines, rules
 from service.db.models import (
+    Aggregate,
     Alert,
     AlertState,
     Baseline,
     Bout,
     Camera,
-    DailyAggregate,
     Fall,
     Recording,
     Resident,
@@ -501,10 +501,11 @@ def _store(
 
     rec_day = day(t0)
     day_median = session.scalar(
-        select(DailyAggregate.median).where(
-            DailyAggregate.resident_id == resident.id,
-            DailyAggregate.metric == "walking_speed_m_s",
-            DailyAggregate.day == rec_day,
+        select(Aggregate.median).where(
+            Aggregate.resident_id == resident.id,
+            Aggregate.metric == "walking_speed_m_s",
+            Aggregate.period == "day",
+            Aggregate.start == rec_day,
         )
     )
     base: Baseline | None = stored.get("walking_speed_m_s")

@@ -232,20 +232,29 @@ class Fall(Base):
     extra: Mapped[dict[str, Any]] = mapped_column(default=dict)
 
 
-class DailyAggregate(Base):
-    """Per resident, metric and local day: median, quartiles and number of values."""
+class Aggregate(Base):
+    """Per resident, metric and period (local day, ISO week, month): median, quartiles, count.
 
-    __tablename__ = "daily_aggregates"
+    ``period`` is ``day``, ``week`` (``start`` a Monday) or ``month`` (``start`` the 1st). The
+    week and month rows pool the underlying values (exact quantiles), so trends of any bucket
+    read a handful of rows.
+    """
+
+    __tablename__ = "aggregates"
 
     resident_id: Mapped[int] = mapped_column(
         ForeignKey("residents.id", ondelete="CASCADE"), primary_key=True
     )
     metric: Mapped[str] = mapped_column(String(64), primary_key=True)
-    day: Mapped[dt.date] = mapped_column(Date, primary_key=True)
+    period: Mapped[str] = mapped_column(String(8), primary_key=True)
+    start: Mapped[dt.date] = mapped_column(Date, primary_key=True)
     median: Mapped[float] = mapped_column(Float)
     q1: Mapped[float] = mapped_column(Float)
     q3: Mapped[float] = mapped_column(Float)
     count: Mapped[int] = mapped_column(Integer)
+
+
+PERIODS: tuple[str, ...] = ("day", "week", "month")
 
 
 class Baseline(Base):

@@ -14,9 +14,9 @@ from sqlalchemy.orm import Session
 from tqdm import tqdm
 
 from gaitwatch.conventions import GAIT_JSON_FIELDS
-from service.db.aggregates import grouped_quantiles
+from service.db.aggregates import bucket_start, grouped_quantiles
 from service.db.baselines import BaselineRule, update_baselines
-from service.db.models import BOUT_METRICS, Bout, DailyAggregate, Recording, Resident
+from service.db.models import BOUT_METRICS, PERIODS, Aggregate, Bout, Recording, Resident
 
 # Typical older-adult values and between-bout spread of each CONVENTIONS field.
 TYPICAL: dict[str, tuple[float, float]] = {
@@ -162,21 +162,24 @@ def populate(
         session.execute(Bout.__table__.insert(), bouts)
         keys = day_idx + first.toordinal()
         aggs = []
-        for metric in BOUT_METRICS:
-            uniq, med, q1, q3, cnt = grouped_quantiles(keys, values[metric])
-            aggs.extend(
-                {
-                    "resident_id": res.id,
-                    "metric": metric,
-                    "day": dt.date.fromordinal(int(k)),
-                    "median": float(a),
-                    "q1": float(b),
-                    "q3": float(c),
-                    "count": int(e),
-                }
-                for k, a, b, c, e in zip(uniq, med, q1, q3, cnt, strict=True)
-            )
-        session.execute(DailyAggregate.__table__.insert(), aggs)
+        for period in PERIODS:
+            pkeys = bucket_start(keys, period)
+            for metric in BOUT_METRICS:
+                uniq, med, q1, q3, cnt = grouped_quantiles(pkeys, values[metric])
+                aggs.extend(
+                    {
+                        "resident_id": res.id,
+                        "metric": metric,
+                        "period": period,
+                        "start": dt.date.fromordinal(int(k)),
+                        "median": float(a),
+                        "q1": float(b),
+                        "q3": float(c),
+                        "count": int(e),
+                    }
+                    for k, a, b, c, e in zip(uniq, med, q1, q3, cnt, strict=True)
+                )
+        session.execute(Aggregate.__table__.insert(), aggs)
         update_baselines(session, res.id, rule)
         session.commit()
     return ids

@@ -1,0 +1,206 @@
+"""Load benchmark of the trends endpoint: requests/s and p50/p99 latency on loopback.
+
+Builds (or reuses, with ``--db``) a SQLite database of ``--residents`` residents with ``--days``
+of daily recordings, bouts and aggregates, starts ``gaitwatch serve`` in a subprocess on a free
+port of 127.0.0.1, and drives ``GET /residents/{id}/trends`` with ``--clients`` concurrent
+clients (httpx AsyncClient, one connection each) until ``--requests`` requests or
+``--seconds`` have passed. The request mix is what a dashboard asks: the last 90 days by day
+(60 %), the last year by week (25 %), two years by month (15 %), random resident and metric.
+
+Target (issue 6): p99 under 50 ms at 50 concurrent clients with SQLite on the 2-core machine.
+Client and server share the machine, so the figures include the client's own CPU use.
+
+Usage::
+
+    python bench/api_load.py                     # 100 residents x 730 days, 50 clients
+    python bench/api_load.py --db /tmp/gw-bench.sqlite3 --clients 10 --requests 2000
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import datetime as dt
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import httpx
+import numpy as np
+
+from gaitwatch.conventions import GAIT_JSON_FIELDS
+from service.api.security import create_api_key
+from service.db.migrate import upgrade
+from service.db.models import Resident
+from service.db.session import make_engine, make_sessionmaker
+from service.db.synthetic import populate
+
+
+def build_db(path: Path, residents: int, days: int, bouts_per_day: int, seed: int) -> str:
+    """Create the database unless ``path`` already holds the residents; return an admin key."""
+    url = f"sqlite:///{path}"
+    upgrade(url)
+    engine = make_engine(url, pool_size=2)
+    try:
+        sm = make_sessionmaker(engine)
+        with sm() as s:
+            have = s.query(Resident).count()
+        if have < residents:
+            t0 = time.perf_counter()
+            with sm() as s:
+                populate(
+                    s,
+                    np.random.default_rng(seed),
+                    n_residents=residents - have,
+                    days=days,
+                    bouts_per_day=bouts_per_day,
+                )
+            print(
+                f"built {residents - have} residents x {days} days in "
+                f"{time.perf_counter() - t0:.0f} s",
+                file=sys.stderr,
+            )
+        with sm() as s:
+            _, token = create_api_key(s, name="bench", role="admin")
+            s.commit()
+        return token
+    finally:
+        engine.dispose()
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def start_server(url: str, port: int, workers: int) -> subprocess.Popen[bytes]:
+    env = {**os.environ, "GAITWATCH_DATABASE_URL": url}
+    cmd = [sys.executable, "-m", "service.cli", "-q", "serve", "--host", "127.0.0.1"]
+    cmd += ["--port", str(port), "--log-level", "warning", "--workers", str(workers)]
+    proc = subprocess.Popen(cmd, env=env)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise SystemExit(f"server exited with code {proc.returncode}")
+        try:
+            if httpx.get(f"http://127.0.0.1:{port}/healthz", timeout=1).status_code == 200:
+                return proc
+        except httpx.HTTPError:
+            pass
+        time.sleep(0.2)
+    proc.terminate()
+    raise SystemExit("server did not become healthy within 60 s")
+
+
+def make_paths(rng: np.random.Generator, ids: list[int], n: int, today: dt.date) -> list[str]:
+    paths = []
+    for _ in range(n):
+        rid = int(rng.choice(ids))
+        metric = GAIT_JSON_FIELDS[int(rng.integers(len(GAIT_JSON_FIELDS)))]
+        u = rng.random()
+        bucket, span = ("day", 89) if u < 0.6 else ("week", 364) if u < 0.85 else ("month", 729)
+        start = today - dt.timedelta(days=span)
+        paths.append(
+            f"/residents/{rid}/trends?metric={metric}&bucket={bucket}&from={start}&to={today}"
+        )
+    return paths
+
+
+async def drive(
+    base: str, token: str, paths: list[str], clients: int, seconds: float
+) -> tuple[list[float], int, float]:
+    """Run the requests with ``clients`` workers; latencies (s), errors, wall time."""
+    queue: asyncio.Queue[str] = asyncio.Queue()
+    for p in paths:
+        queue.put_nowait(p)
+    lat: list[float] = []
+    errors = 0
+    deadline = time.perf_counter() + seconds
+    headers = {"Authorization": f"Bearer {token}"}
+    limits = httpx.Limits(max_connections=clients, max_keepalive_connections=clients)
+
+    async def worker(client: httpx.AsyncClient) -> None:
+        nonlocal errors
+        while time.perf_counter() < deadline:
+            try:
+                path = queue.get_nowait()
+            except asyncio.QueueEmpty:
+                return
+            t0 = time.perf_counter()
+            try:
+                r = await client.get(path, headers=headers)
+                ok = r.status_code == 200 and r.json()["points"] is not None
+            except httpx.HTTPError:
+                ok = False
+            lat.append(time.perf_counter() - t0)
+            errors += not ok
+
+    async with httpx.AsyncClient(base_url=base, limits=limits, timeout=30) as client:
+        t0 = time.perf_counter()
+        await asyncio.gather(*(worker(client) for _ in range(clients)))
+        wall = time.perf_counter() - t0
+    return lat, errors, wall
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--residents", type=int, default=100)
+    ap.add_argument("--days", type=int, default=730)
+    ap.add_argument("--bouts-per-day", type=int, default=4)
+    ap.add_argument("--clients", type=int, default=50)
+    ap.add_argument("--requests", type=int, default=3000, help="measured requests (max)")
+    ap.add_argument("--warmup", type=int, default=300)
+    ap.add_argument("--seconds", type=float, default=60.0, help="time limit of the measurement")
+    ap.add_argument("--workers", type=int, default=1, help="server processes")
+    ap.add_argument("--db", type=Path, help="database file to build or reuse (default: temp)")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args(argv)
+
+    tmp = None
+    if args.db is None:
+        tmp = tempfile.TemporaryDirectory(prefix="gw-bench-")
+        args.db = Path(tmp.name) / "bench.sqlite3"
+    token = build_db(args.db, args.residents, args.days, args.bouts_per_day, args.seed)
+    url = f"sqlite:///{args.db}"
+    port = free_port()
+    proc = start_server(url, port, args.workers)
+    try:
+        rng = np.random.default_rng(args.seed)
+        ids = list(range(1, args.residents + 1))
+        today = dt.datetime.now(dt.UTC).date()
+        base = f"http://127.0.0.1:{port}"
+        asyncio.run(drive(base, token, make_paths(rng, ids, args.warmup, today), 10, 60))
+        paths = make_paths(rng, ids, args.requests, today)
+        lat, errors, wall = asyncio.run(drive(base, token, paths, args.clients, args.seconds))
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+        if tmp is not None:
+            tmp.cleanup()
+    ms = np.array(lat) * 1000
+    print(
+        f"trends endpoint, {args.residents} residents x {args.days} days, SQLite, "
+        f"{args.clients} concurrent clients, {args.workers} server worker(s), "
+        f"{os.cpu_count()} CPUs shared with the client"
+    )
+    print(f"requests: {len(lat)} in {wall:.1f} s, errors: {errors}")
+    print(f"throughput: {len(lat) / wall:.0f} requests/s")
+    print(
+        f"latency ms: p50 {np.percentile(ms, 50):.1f}  p90 {np.percentile(ms, 90):.1f}  "
+        f"p99 {np.percentile(ms, 99):.1f}  max {ms.max():.1f}"
+    )
+    target = np.percentile(ms, 99) < 50
+    print(f"target p99 < 50 ms: {'met' if target else 'NOT met'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
