@@ -81,6 +81,23 @@ def test_select_distinct_keeps_heaviest_distinct() -> None:
     assert select_distinct(poses, w, 2).tolist() == [1, 2]
 
 
+def test_select_distinct_matches_a_full_sort_with_ties_and_duplicates() -> None:
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        poses = rng.normal(size=(2000, N_DOF))
+        poses[rng.integers(0, 2000, 900)] = poses[rng.integers(0, 5)]  # many duplicates
+        w = rng.random(2000).round(1)  # many ties
+        order = np.argsort(-w, kind="stable")
+        seen, expect = set(), []
+        for i in order:
+            key = poses[i].tobytes()
+            if key not in seen:
+                seen.add(key)
+                expect.append(i)
+        for m in (1, 7, 81, 5000):
+            assert select_distinct(poses, w, m).tolist() == expect[:m]
+
+
 def test_resample_systematic_is_proportional() -> None:
     rng = np.random.default_rng(1)
     w = np.array([0.0, 1.0, 3.0, 0.0])

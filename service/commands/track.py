@@ -212,3 +212,35 @@ def run(args: argparse.Namespace) -> int:
     if videos.length_mismatch:
         print(f"warning: {videos.length_mismatch}")
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m service.commands.track ...``: the ``track`` command alone (for benchmarks).
+
+    Same arguments, output and exit codes as ``gaitwatch track``, without loading the other
+    sub-commands.
+    """
+    from service.cli import EXIT_BAD_INPUT, _setup_logging
+
+    parser = argparse.ArgumentParser(prog="gaitwatch")
+    parser.add_argument("-v", "--verbose", action="count", default=0)
+    parser.add_argument("-q", "--quiet", action="store_true")
+    register(parser.add_subparsers(dest="command"))
+    argv = list(sys.argv[1:] if argv is None else argv)
+    lead = 0
+    while lead < len(argv) and argv[lead] in ("-q", "--quiet", "-v", "-vv", "--verbose"):
+        lead += 1
+    rest = argv[lead:]
+    if rest[:1] == ["track"]:
+        rest = rest[1:]
+    args = parser.parse_args([*argv[:lead], "track", *rest])
+    _setup_logging(args.verbose, args.quiet)
+    try:
+        return int(args.func(args) or 0)
+    except (InputError, FileNotFoundError, IsADirectoryError, PermissionError) as err:
+        print(f"gaitwatch: error: {str(err).replace(chr(10), ' ')}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -68,10 +68,28 @@ def select_distinct(poses: np.ndarray, weights: np.ndarray, m: int) -> np.ndarra
     ndarray of int, shape (min(m, distinct),)
         Sorted by decreasing weight (ties: lower index first). Among identical poses the
         heaviest one is kept.
+
+    Notes
+    -----
+    Looks for duplicates among the ``4 m`` heaviest first (a partial sort), and over the whole
+    set only when those hold fewer than ``m`` distinct poses.
     """
-    order = np.argsort(-np.asarray(weights, dtype=np.float64), kind="stable")
+    w = np.asarray(weights, dtype=np.float64)
+    n = w.shape[0]
+    k = min(n, 4 * m)
+    if k < n:
+        kth = -np.partition(-w, k - 1)[k - 1]
+        top = np.flatnonzero(w >= kth)  # every tie of the k-th weight too: exact order
+        idx = _distinct_sorted(poses, w, top, m)
+        if idx.size >= m:
+            return idx
+    return _distinct_sorted(poses, w, np.arange(n), m)
+
+
+def _distinct_sorted(poses: np.ndarray, w: np.ndarray, cand: np.ndarray, m: int) -> np.ndarray:
+    order = cand[np.lexsort((cand, -w[cand]))]  # weight descending, then index ascending
     sorted_poses = np.ascontiguousarray(poses[order])
-    # Identical rows have identical bytes: unique over a void view is exact and fast.
+    # Identical rows have identical bytes: unique over a void view is exact.
     rows = sorted_poses.view(np.dtype((np.void, sorted_poses.dtype.itemsize * poses.shape[1])))
     _, first = np.unique(rows.ravel(), return_index=True)
     first.sort()
