@@ -343,7 +343,7 @@ class BodyModel:
                     fw,
                     fh / 2,
                     col["shoes"],
-                    v_off=fh / 2 + 0.002,
+                    v_off=fh / 2 - 0.006,  # sole just below heel and toe points
                     exponent=4.0,
                 )  # fmt: skip
             )

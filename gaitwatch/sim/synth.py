@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from gaitwatch.conventions import HEAD, L_TOE, R_TOE, SACRUM
+from gaitwatch.conventions import HEAD, L_HIP, L_TOE, R_HIP, R_TOE, SACRUM
 from gaitwatch.sim.motion import (
     complete_for_render,
     estimate_stature,
@@ -89,8 +89,11 @@ def _path_frame(truth: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     s = truth.positions[:, SACRUM].copy()
     s[:, 2] = 0
     d = walking_direction(truth)
-    if d is None:
-        d = np.array([1.0, 0.0, 0.0])
+    if d is None:  # walking on the spot (treadmill): the body's forward axis from the hips
+        lat = np.nanmean(truth.positions[:, L_HIP] - truth.positions[:, R_HIP], axis=0)
+        lat[2] = 0
+        d = np.cross(lat, UP)
+        d = d / np.linalg.norm(d) if np.linalg.norm(d) > 1e-9 else np.array([1.0, 0.0, 0.0])
     n = np.cross(UP, d)
     along = s @ d
     across = s @ n
@@ -227,7 +230,16 @@ def build_scene(
     body = body.model_copy(update={"stature_m": stature})
     w, h = config.image_size
     if cameras:
-        cams = [c if (c.width, c.height) == (w, h) else c.scaled(w, h) for c in cameras]
+        cams = []
+        for c in cameras:
+            c2 = c if (c.width, c.height) == (w, h) else c.scaled(w, h)
+            # the written camera file carries the video's frame rate
+            c2 = Camera.from_params(
+                name=c2.name, image_size=(w, h), K=c2.K, R=c2.R, t=c2.t, dist=c2.dist.tolist(),
+                fps=config.fps,
+            )  # fmt: skip
+            c2.source = c.source
+            cams.append(c2)
     else:
         cams = default_cameras(truth, config)
     centre, d, n, _ = _path_frame(truth)
