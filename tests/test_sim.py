@@ -292,7 +292,7 @@ def test_body_shapes_change_the_silhouette(short_walk: Trajectory) -> None:
 def test_occluder_hides_the_legs(short_walk: Trajectory) -> None:
     def foot_visibility(occluder: str) -> tuple[float, float]:
         _, masks, sc = _masks_and_images(
-            short_walk, room={"occluder": occluder}, seed=2, noise={"sigma_dn": 0}
+            short_walk, room={"occluder": occluder}, seed=2, noise={"sigma_dn": 0}, fps=10.0
         )
         cam = sc.cameras[0]
         feet = head = 0.0
