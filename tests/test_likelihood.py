@@ -76,17 +76,17 @@ def test_projection_matches_camera(cameras: list[Camera]) -> None:
     rng = np.random.default_rng(0)
     pts = rng.uniform([-1, -1, 0], [1, 1, 2], (50, 3))
     for cam in cameras:
-        row = raster.pack_camera(cam.R, cam.t, cam.K, cam.dist)
+        row = raster.pack_camera(cam.R, cam.t, cam.K, cam.dist)[None]
         ref = cam.project(pts)
-        got = np.array([raster.project_point(p, row)[:2] for p in pts])
+        got = np.array([raster.project_point(*p, row, 0)[:2] for p in pts])
         np.testing.assert_allclose(got, ref, atol=1e-9)
     # the disc radii agree with the reference's (central differences) to 1e-4
     body = BodyModel()
     a, b = body.capsules(body.neutral_pose())
     cam = cameras[2]
-    row = raster.pack_camera(cam.R, cam.t, cam.K, cam.dist)
+    row = raster.pack_camera(cam.R, cam.t, cam.K, cam.dist)[None]
     _, _, ra, _, _ = capsule_discs(cam, a[0], b[0], body.radii)
-    scale = np.array([raster.project_point(p, row)[2] for p in a[0]])
+    scale = np.array([raster.project_point(*p, row, 0)[2] for p in a[0]])
     np.testing.assert_allclose(scale * body.radii[:, 0], ra, rtol=1e-4)
 
 

@@ -358,77 +358,32 @@ RIGHT_LEG_SEGMENTS: Final[tuple[str, ...]] = ("right_thigh", "right_shank", "rig
 
 
 # -- the numba kernel -------------------------------------------------------------------------
+# The kernels index the arrays they are given instead of taking views of them: in numba every
+# view costs an atomic reference-count update, which threads working on the same arrays would
+# fight over.
 @nb.njit(cache=True)
-def _rot_apply(R: np.ndarray, axis: int, angle: float) -> None:
-    """R <- R @ Rot_axis(angle), in place (R is 3x3)."""
+def _rot_apply(rots: np.ndarray, f: int, axis: int, angle: float) -> None:
+    """rots[f] <- rots[f] @ Rot_axis(angle), in place."""
     c = np.cos(angle)
     s = np.sin(angle)
     if axis == 0:  # columns 1, 2
         for i in range(3):
-            r1 = R[i, 1]
-            r2 = R[i, 2]
-            R[i, 1] = r1 * c + r2 * s
-            R[i, 2] = -r1 * s + r2 * c
+            r1 = rots[f, i, 1]
+            r2 = rots[f, i, 2]
+            rots[f, i, 1] = r1 * c + r2 * s
+            rots[f, i, 2] = -r1 * s + r2 * c
     elif axis == 1:  # columns 0, 2
         for i in range(3):
-            r0 = R[i, 0]
-            r2 = R[i, 2]
-            R[i, 0] = r0 * c - r2 * s
-            R[i, 2] = r0 * s + r2 * c
+            r0 = rots[f, i, 0]
+            r2 = rots[f, i, 2]
+            rots[f, i, 0] = r0 * c - r2 * s
+            rots[f, i, 2] = r0 * s + r2 * c
     else:  # columns 0, 1
         for i in range(3):
-            r0 = R[i, 0]
-            r1 = R[i, 1]
-            R[i, 0] = r0 * c + r1 * s
-            R[i, 1] = -r0 * s + r1 * c
-
-
-@nb.njit(cache=True)
-def _fk_one(
-    pose: np.ndarray,
-    parent: np.ndarray,
-    offset: np.ndarray,
-    rot_axis: np.ndarray,
-    rot_dof: np.ndarray,
-    rot_sign: np.ndarray,
-    pt_frame: np.ndarray,
-    pt_local: np.ndarray,
-    rots: np.ndarray,
-    origins: np.ndarray,
-    out: np.ndarray,
-) -> None:
-    """Forward kinematics of one pose into ``out`` (P, 3); ``rots`` (F,3,3), ``origins`` (F,3)."""
-    nf = parent.shape[0]
-    for f in range(nf):
-        p = parent[f]
-        if p < 0:
-            for i in range(3):
-                origins[f, i] = pose[i]
-                for j in range(3):
-                    rots[f, i, j] = 1.0 if i == j else 0.0
-        else:
-            for i in range(3):
-                origins[f, i] = (
-                    origins[p, i]
-                    + rots[p, i, 0] * offset[f, 0]
-                    + rots[p, i, 1] * offset[f, 1]
-                    + rots[p, i, 2] * offset[f, 2]
-                )
-                for j in range(3):
-                    rots[f, i, j] = rots[p, i, j]
-        for k in range(rot_axis.shape[1]):
-            ax = rot_axis[f, k]
-            if ax >= 0:
-                _rot_apply(rots[f], ax, rot_sign[f, k] * pose[rot_dof[f, k]])
-    for q in range(pt_frame.shape[0]):
-        f = pt_frame[q]
-        for i in range(3):
-            out[q, i] = (
-                origins[f, i]
-                + rots[f, i, 0] * pt_local[q, 0]
-                + rots[f, i, 1] * pt_local[q, 1]
-                + rots[f, i, 2] * pt_local[q, 2]
-            )
+            r0 = rots[f, i, 0]
+            r1 = rots[f, i, 1]
+            rots[f, i, 0] = r0 * c + r1 * s
+            rots[f, i, 1] = -r0 * s + r1 * c
 
 
 @nb.njit(cache=True)
@@ -445,23 +400,41 @@ def _fk_range(
     pt_local: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """Forward kinematics of poses lo..hi-1 into ``out``."""
-    rots = np.empty((parent.shape[0], 3, 3))
-    origins = np.empty((parent.shape[0], 3))
-    for i in range(lo, hi):
-        _fk_one(
-            poses[i],
-            parent,
-            offset,
-            rot_axis,
-            rot_dof,
-            rot_sign,
-            pt_frame,
-            pt_local,
-            rots,
-            origins,
-            out[i],
-        )
+    """Forward kinematics of poses lo..hi-1 (N, 31) into ``out`` (N, P, 3)."""
+    nf = parent.shape[0]
+    rots = np.empty((nf, 3, 3))
+    origins = np.empty((nf, 3))
+    for n in range(lo, hi):
+        for f in range(nf):
+            p = parent[f]
+            if p < 0:
+                for i in range(3):
+                    origins[f, i] = poses[n, i]
+                    for j in range(3):
+                        rots[f, i, j] = 1.0 if i == j else 0.0
+            else:
+                for i in range(3):
+                    origins[f, i] = (
+                        origins[p, i]
+                        + rots[p, i, 0] * offset[f, 0]
+                        + rots[p, i, 1] * offset[f, 1]
+                        + rots[p, i, 2] * offset[f, 2]
+                    )
+                    for j in range(3):
+                        rots[f, i, j] = rots[p, i, j]
+            for k in range(rot_axis.shape[1]):
+                ax = rot_axis[f, k]
+                if ax >= 0:
+                    _rot_apply(rots, f, ax, rot_sign[f, k] * poses[n, rot_dof[f, k]])
+        for q in range(pt_frame.shape[0]):
+            f = pt_frame[q]
+            for i in range(3):
+                out[n, q, i] = (
+                    origins[f, i]
+                    + rots[f, i, 0] * pt_local[q, 0]
+                    + rots[f, i, 1] * pt_local[q, 1]
+                    + rots[f, i, 2] * pt_local[q, 2]
+                )
 
 
 @nb.njit(cache=True, parallel=True)

@@ -166,14 +166,15 @@ class SilhouetteLikelihood:
         pr = np.repeat(base[:, None, :], nb_, axis=1)
         pr[:, :, list(RIGHT_LEG)] = right
         b = self.body
-        npts = b.n_points
         pts_base = b.points(base)
-        pts_left = b.points(pl.reshape(-1, N_DOF)).reshape(m, na, npts, 3)
-        pts_right = b.points(pr.reshape(-1, N_DOF)).reshape(m, nb_, npts, 3)
+        pts_left = b.points(pl.reshape(-1, N_DOF))
+        pts_right = b.points(pr.reshape(-1, N_DOF))
         return raster.counts_factored_kernel(
             pts_base,
             pts_left,
             pts_right,
+            na,
+            nb_,
             b.capsule_groups,
             b.cap_ab,
             b.radii,
@@ -181,6 +182,7 @@ class SilhouetteLikelihood:
             self.cam_hw,
             sil,
             self._sil_total,
+            4 * nb.get_num_threads(),
         )
 
     def weights_factored(
@@ -211,7 +213,7 @@ class SilhouetteLikelihood:
         """The model's silhouette of one pose (31,) in one camera: bool ``(H, W)``."""
         cam = self.cameras[camera_index]
         k = camera_index
-        pts = self.body.points(self._poses(pose))[0]
+        pts = self.body.points(self._poses(pose)[:1])
         b = self.body
-        bits = raster.render_one_kernel(pts, b.cap_ab, b.radii, self.cams[k], cam.height, cam.width)
+        bits = raster.render_one_kernel(pts, b.cap_ab, b.radii, self.cams, k, cam.height, cam.width)
         return raster.unpack_rows(bits, cam.width)

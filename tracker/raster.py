@@ -16,7 +16,9 @@ Geometry (the same in :mod:`tracker.render_ref`):
 * A pixel is covered when its centre (integer coordinates, OpenCV's convention) lies in the hull.
 
 Every kernel keeps a row/word bounding box per mask, so clearing and counting touch only the
-rows and words the model covers.
+rows and words the model covers. Masks live in 3-D arrays ``(slots, H, W64)`` addressed by slot,
+and the kernels index the arrays they are given rather than slicing them: in numba every array
+view costs an atomic reference-count update, which parallel threads would fight over.
 """
 
 from __future__ import annotations
@@ -45,18 +47,6 @@ def popcount64(typingctx, x):  # type: ignore[no-untyped-def]
     return sig, codegen
 
 
-@nb.njit(cache=True)
-def _distort(x: float, y: float, d: np.ndarray) -> tuple[float, float]:
-    """OpenCV distortion of normalised coordinates; ``d`` holds 14 coefficients (zero padded)."""
-    r2 = x * x + y * y
-    r4 = r2 * r2
-    r6 = r4 * r2
-    radial = (1.0 + d[0] * r2 + d[1] * r4 + d[4] * r6) / (1.0 + d[5] * r2 + d[6] * r4 + d[7] * r6)
-    xd = x * radial + 2.0 * d[2] * x * y + d[3] * (r2 + 2.0 * x * x) + d[8] * r2 + d[9] * r4
-    yd = y * radial + d[2] * (r2 + 2.0 * y * y) + 2.0 * d[3] * x * y + d[10] * r2 + d[11] * r4
-    return xd, yd
-
-
 # Packed camera: one float64 row of CAM_FIELDS values per camera.
 CAM_R: Final = slice(0, 9)  # world -> camera rotation, row-major
 CAM_T: Final = slice(9, 12)  # translation
@@ -81,38 +71,60 @@ def pack_camera(R: np.ndarray, t: np.ndarray, K: np.ndarray, dist: np.ndarray) -
 
 
 @nb.njit(cache=True)
-def project_point(X: np.ndarray, cam: np.ndarray) -> tuple[float, float, float, bool]:
-    """Project world point ``X`` (3,) -> (u, v, pixels per metre at that depth, in front?).
+def _distort(x: float, y: float, cams: np.ndarray, k: int) -> tuple[float, float]:
+    """OpenCV distortion of normalised coordinates with the coefficients of camera k."""
+    k1 = cams[k, 17]
+    k2 = cams[k, 18]
+    p1 = cams[k, 19]
+    p2 = cams[k, 20]
+    k3 = cams[k, 21]
+    r2 = x * x + y * y
+    r4 = r2 * r2
+    r6 = r4 * r2
+    radial = (1.0 + k1 * r2 + k2 * r4 + k3 * r6) / (
+        1.0 + cams[k, 22] * r2 + cams[k, 23] * r4 + cams[k, 24] * r6
+    )
+    xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) + cams[k, 25] * r2
+    xd += cams[k, 26] * r4
+    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y + cams[k, 27] * r2
+    yd += cams[k, 28] * r4
+    return xd, yd
 
-    ``cam`` is a packed camera row (:func:`pack_camera`).
+
+@nb.njit(cache=True)
+def project_point(
+    px: float, py: float, pz: float, cams: np.ndarray, k: int
+) -> tuple[float, float, float, bool]:
+    """Project world point (px, py, pz) with packed camera k (:func:`pack_camera`).
+
+    Returns (u, v, pixels per metre at that depth, in front of the camera?).
     """
-    xc = cam[0] * X[0] + cam[1] * X[1] + cam[2] * X[2] + cam[9]
-    yc = cam[3] * X[0] + cam[4] * X[1] + cam[5] * X[2] + cam[10]
-    zc = cam[6] * X[0] + cam[7] * X[1] + cam[8] * X[2] + cam[11]
+    xc = cams[k, 0] * px + cams[k, 1] * py + cams[k, 2] * pz + cams[k, 9]
+    yc = cams[k, 3] * px + cams[k, 4] * py + cams[k, 5] * pz + cams[k, 10]
+    zc = cams[k, 6] * px + cams[k, 7] * py + cams[k, 8] * pz + cams[k, 11]
     if not zc >= Z_NEAR:
         return 0.0, 0.0, 0.0, False
     x = xc / zc
     y = yc / zc
-    fx = cam[12]
-    fy = cam[13]
+    fx = cams[k, 12]
+    fy = cams[k, 13]
     scale = 0.5 * (fx + fy) / zc
-    if cam[31] != 0.0:
-        d = cam[17:31]
-        xd, yd = _distort(x, y, d)
-        x1, y1 = _distort(x + FD_STEP, y, d)
-        x2, y2 = _distort(x, y + FD_STEP, d)
+    if cams[k, 31] != 0.0:
+        xd, yd = _distort(x, y, cams, k)
+        x1, y1 = _distort(x + FD_STEP, y, cams, k)
+        x2, y2 = _distort(x, y + FD_STEP, cams, k)
         det = ((x1 - xd) * (y2 - yd) - (x2 - xd) * (y1 - yd)) / (FD_STEP * FD_STEP)
         scale *= np.sqrt(abs(det))
         x = xd
         y = yd
-    u = fx * x + cam[16] * y + cam[14]
-    v = fy * y + cam[15]
+    u = fx * x + cams[k, 16] * y + cams[k, 14]
+    v = fy * y + cams[k, 15]
     return u, v, scale, True
 
 
 @nb.njit(cache=True)
-def _emit_span(mask: np.ndarray, y: int, xl: float, xr: float, wmax: float) -> None:
-    """Set the pixels of row y whose centres lie in [xl, xr] (wmax = width - 1)."""
+def _emit_span(mask: np.ndarray, slot: int, y: int, xl: float, xr: float, wmax: float) -> None:
+    """Set the pixels of row y of mask[slot] whose centres lie in [xl, xr] (wmax = W - 1)."""
     if xl > xr or xr < 0.0 or xl > wmax:
         return
     j0 = int(np.ceil(max(xl, 0.0)))
@@ -124,12 +136,12 @@ def _emit_span(mask: np.ndarray, y: int, xl: float, xr: float, wmax: float) -> N
     lo = _ALL << np.uint64(j0 & 63)
     hi = _ALL >> np.uint64(63 - (j1 & 63))
     if wa == wb:
-        mask[y, wa] |= lo & hi
+        mask[slot, y, wa] |= lo & hi
     else:
-        mask[y, wa] |= lo
+        mask[slot, y, wa] |= lo
         for w in range(wa + 1, wb):
-            mask[y, w] = _ALL
-        mask[y, wb] |= hi
+            mask[slot, y, w] = _ALL
+        mask[slot, y, wb] |= hi
 
 
 @nb.njit(cache=True)
@@ -141,16 +153,17 @@ def raster_capsule(
     by: float,
     rb: float,
     mask: np.ndarray,
+    slot: int,
     height: int,
     width: int,
     bbox: np.ndarray,
 ) -> None:
-    """OR the convex hull of discs (a, ra) and (b, rb) (pixels) into bit-packed ``mask``.
+    """OR the convex hull of discs (a, ra) and (b, rb) (pixels) into bit-packed mask[slot].
 
-    ``bbox`` (4,) int64 = [row_min, row_max, word_min, word_max] is widened to cover the
-    capsule's clipped bounding box (rows and words in it that the capsule misses stay zero).
-    Rows crossed by both outer tangent segments take their span from the segments alone
-    (incrementally); only the rows near the ends look at the discs.
+    ``bbox[slot]`` = [row_min, row_max, word_min, word_max] is widened to cover the capsule's
+    clipped bounding box (rows and words in it that the capsule misses stay zero). Rows
+    crossed by both outer tangent segments take their span from the segments alone; only the
+    rows near the ends look at the discs.
     """
     if not (
         np.isfinite(ax)
@@ -172,21 +185,20 @@ def raster_capsule(
     r1 = int(np.floor(min(ymax, height - 1.0)))
     if r0 > r1:
         return
-    if r0 < bbox[0]:
-        bbox[0] = r0
-    if r1 > bbox[1]:
-        bbox[1] = r1
+    if r0 < bbox[slot, 0]:
+        bbox[slot, 0] = r0
+    if r1 > bbox[slot, 1]:
+        bbox[slot, 1] = r1
     c0 = int(np.ceil(max(xmin, 0.0))) >> 6
     c1 = int(np.floor(min(xmax, wmax))) >> 6
-    if c0 < bbox[2]:
-        bbox[2] = c0
-    if c1 > bbox[3]:
-        bbox[3] = c1
+    if c0 < bbox[slot, 2]:
+        bbox[slot, 2] = c0
+    if c1 > bbox[slot, 3]:
+        bbox[slot, 3] = c1
     dx = bx - ax
     dy = by - ay
     d = np.sqrt(dx * dx + dy * dy)
-    hull = d > abs(ra - rb) + 1e-9
-    if not hull:  # one disc contains the other: draw the larger
+    if not d > abs(ra - rb) + 1e-9:  # one disc contains the other: draw the larger
         if rb > ra:
             ax, ay, ra = bx, by, rb
         ra2 = ra * ra
@@ -194,14 +206,13 @@ def raster_capsule(
             e = y - ay
             if e * e <= ra2:
                 h = np.sqrt(ra2 - e * e)
-                _emit_span(mask, y, ax - h, ax + h, wmax)
+                _emit_span(mask, slot, y, ax - h, ax + h, wmax)
         return
-    ra2 = ra * ra
-    rb2 = rb * rb
     # the two outer tangent segments p -> q of the hull
-    ux = dx / d
-    uy = dy / d
-    c = (ra - rb) / d
+    inv_d = 1.0 / d
+    ux = dx * inv_d
+    uy = dy * inv_d
+    c = (ra - rb) * inv_d
     s = np.sqrt(max(0.0, 1.0 - c * c))
     n1x = c * ux - s * uy
     n1y = c * uy + s * ux
@@ -209,27 +220,26 @@ def raster_capsule(
     n2y = c * uy - s * ux
     p1x = ax + ra * n1x
     p1y = ay + ra * n1y
-    q1x = bx + rb * n1x
     q1y = by + rb * n1y
     p2x = ax + ra * n2x
     p2y = ay + ra * n2y
-    q2x = bx + rb * n2x
     q2y = by + rb * n2y
-    k1 = (q1x - p1x) / (q1y - p1y) if q1y != p1y else 0.0
-    k2 = (q2x - p2x) / (q2y - p2y) if q2y != p2y else 0.0
+    k1 = (bx + rb * n1x - p1x) / (q1y - p1y) if q1y != p1y else 0.0
+    k2 = (bx + rb * n2x - p2x) / (q2y - p2y) if q2y != p2y else 0.0
     # rows crossed by both tangent segments: [i0, i1]
-    i0 = int(np.ceil(max(min(p1y, q1y), min(p2y, q2y))))
-    i1 = int(np.floor(min(max(p1y, q1y), max(p2y, q2y))))
-    if q1y == p1y or q2y == p2y:
-        i0 = r1 + 1
-        i1 = r1
-    i0 = max(i0, r0)
-    i1 = min(i1, r1)
-    if i0 > i1:
-        i0 = r1 + 1
-        i1 = r1
+    i0 = r1 + 1
+    i1 = r1
+    if q1y != p1y and q2y != p2y:
+        i0 = max(int(np.ceil(max(min(p1y, q1y), min(p2y, q2y)))), r0)
+        i1 = min(int(np.floor(min(max(p1y, q1y), max(p2y, q2y)))), r1)
+        if i0 > i1:
+            i0 = r1 + 1
+            i1 = r1
+    ra2 = ra * ra
+    rb2 = rb * rb
     _rows_ends(
         mask,
+        slot,
         r0,
         min(i0 - 1, r1),
         ax,
@@ -249,39 +259,41 @@ def raster_capsule(
         wmax,
     )
     if i0 <= i1:
-        _rows_middle(mask, i0, i1, p1x, p1y, k1, p2x, p2y, k2, wmax)
+        for y in range(i0, i1 + 1):
+            fy = float(y)
+            x1 = p1x + (fy - p1y) * k1
+            x2 = p2x + (fy - p2y) * k2
+            if x1 <= x2:
+                _emit_span(mask, slot, y, x1, x2, wmax)
+            else:
+                _emit_span(mask, slot, y, x2, x1, wmax)
         _rows_ends(
-            mask, i1 + 1, r1, ax, ay, ra2, bx, by, rb2, p1x, p1y, q1y, k1, p2x, p2y, q2y, k2, wmax
+            mask,
+            slot,
+            i1 + 1,
+            r1,
+            ax,
+            ay,
+            ra2,
+            bx,
+            by,
+            rb2,
+            p1x,
+            p1y,
+            q1y,
+            k1,
+            p2x,
+            p2y,
+            q2y,
+            k2,
+            wmax,
         )
-
-
-@nb.njit(cache=True)
-def _rows_middle(
-    mask: np.ndarray,
-    y0: int,
-    y1: int,
-    p1x: float,
-    p1y: float,
-    k1: float,
-    p2x: float,
-    p2y: float,
-    k2: float,
-    wmax: float,
-) -> None:
-    """Rows y0..y1, all crossed by both tangent segments: the span lies between them."""
-    for y in range(y0, y1 + 1):
-        fy = float(y)
-        x1 = p1x + (fy - p1y) * k1
-        x2 = p2x + (fy - p2y) * k2
-        if x1 <= x2:
-            _emit_span(mask, y, x1, x2, wmax)
-        else:
-            _emit_span(mask, y, x2, x1, wmax)
 
 
 @nb.njit(cache=True)
 def _rows_ends(
     mask: np.ndarray,
+    slot: int,
     y0: int,
     y1: int,
     ax: float,
@@ -323,59 +335,66 @@ def _rows_ends(
             x = p2x + (fy - p2y) * k2
             xl = min(xl, x)
             xr = max(xr, x)
-        _emit_span(mask, y, xl, xr, wmax)
+        _emit_span(mask, slot, y, xl, xr, wmax)
 
 
 @nb.njit(cache=True)
-def _reset_bbox(bbox: np.ndarray) -> None:
-    bbox[0] = _BIG
-    bbox[1] = -1
-    bbox[2] = _BIG
-    bbox[3] = -1
+def _reset_bbox(bbox: np.ndarray, slot: int) -> None:
+    bbox[slot, 0] = _BIG
+    bbox[slot, 1] = -1
+    bbox[slot, 2] = _BIG
+    bbox[slot, 3] = -1
 
 
 @nb.njit(cache=True)
 def render_capsules(
     pts: np.ndarray,
+    i: int,
     sel: np.ndarray,
     cap_ab: np.ndarray,
     radii: np.ndarray,
-    cam: np.ndarray,
+    cams: np.ndarray,
+    k: int,
     height: int,
     width: int,
     mask: np.ndarray,
+    slot: int,
     bbox: np.ndarray,
 ) -> None:
-    """Rasterise capsules ``sel`` of one pose into ``mask`` (height rows, width pixels).
+    """Rasterise capsules ``sel`` of pose i in camera k into mask[slot] (widening bbox[slot]).
 
-    ``pts`` (P, 3) model points; ``cap_ab`` (C, 2) point indices of capsule ends; ``radii``
-    (C, 2) metres; ``cam`` a packed camera row.
+    ``pts`` (N, P, 3) model points; ``cap_ab`` (C, 2) point indices of the capsule ends;
+    ``radii`` (C, 2) metres; ``cams`` packed cameras (K, 32).
     """
     for ci in range(sel.shape[0]):
         c = sel[ci]
-        ua, va, sa, oka = project_point(pts[cap_ab[c, 0]], cam)
+        ia = cap_ab[c, 0]
+        ib = cap_ab[c, 1]
+        ua, va, sa, oka = project_point(pts[i, ia, 0], pts[i, ia, 1], pts[i, ia, 2], cams, k)
         if not oka:
             continue
-        ub, vb, sb, okb = project_point(pts[cap_ab[c, 1]], cam)
+        ub, vb, sb, okb = project_point(pts[i, ib, 0], pts[i, ib, 1], pts[i, ib, 2], cams, k)
         if not okb:
             continue
         raster_capsule(
-            ua, va, radii[c, 0] * sa, ub, vb, radii[c, 1] * sb, mask, height, width, bbox
+            ua, va, radii[c, 0] * sa, ub, vb, radii[c, 1] * sb, mask, slot, height, width, bbox
         )
 
 
 @nb.njit(cache=True)
-def _count_clear(mask: np.ndarray, sil: np.ndarray, bbox: np.ndarray) -> tuple[int, int]:
-    """(model pixels, common pixels) within bbox; clears those mask words."""
+def _count_clear(
+    mask: np.ndarray, slot: int, sil: np.ndarray, k: int, bbox: np.ndarray
+) -> tuple[int, int]:
+    """(model pixels, common pixels) of mask[slot] against sil[k] within bbox[slot]; clears."""
     tot = 0
     com = 0
-    for y in range(bbox[0], bbox[1] + 1):
-        for w in range(bbox[2], bbox[3] + 1):
-            m = mask[y, w]
+    for y in range(bbox[slot, 0], bbox[slot, 1] + 1):
+        for w in range(bbox[slot, 2], bbox[slot, 3] + 1):
+            m = mask[slot, y, w]
             if m:
                 tot += popcount64(m)
-                com += popcount64(m & sil[y, w])
-                mask[y, w] = 0
+                com += popcount64(m & sil[k, y, w])
+                mask[slot, y, w] = 0
     return tot, com
 
 
@@ -393,16 +412,16 @@ def _counts_range(
     out: np.ndarray,
 ) -> None:
     """Counts of poses lo..hi-1 (all capsules) into ``out`` with one scratch mask."""
-    mask = np.zeros((sil.shape[1], sil.shape[2]), dtype=np.uint64)
-    bbox = np.empty(4, dtype=np.int64)
+    mask = np.zeros((1, sil.shape[1], sil.shape[2]), dtype=np.uint64)
+    bbox = np.empty((1, 4), dtype=np.int64)
     sel = np.arange(cap_ab.shape[0])
     for i in range(lo, hi):
         for k in range(cams.shape[0]):
-            _reset_bbox(bbox)
+            _reset_bbox(bbox, 0)
             render_capsules(
-                pts[i], sel, cap_ab, radii, cams[k], cam_hw[k, 0], cam_hw[k, 1], mask, bbox
+                pts, i, sel, cap_ab, radii, cams, k, cam_hw[k, 0], cam_hw[k, 1], mask, 0, bbox
             )
-            tot, com = _count_clear(mask, sil[k], bbox)
+            tot, com = _count_clear(mask, 0, sil, k, bbox)
             out[i, k, 0] = com
             out[i, k, 1] = sil_total[k] - com
             out[i, k, 2] = tot - com
@@ -449,11 +468,14 @@ def counts_kernel(
 
 
 @nb.njit(cache=True)
-def _factored_one(
-    m: int,
+def _factored_range(
+    lo: int,
+    hi: int,
     pts_base: np.ndarray,
     pts_left: np.ndarray,
     pts_right: np.ndarray,
+    na: int,
+    nb_: int,
     groups: np.ndarray,
     cap_ab: np.ndarray,
     radii: np.ndarray,
@@ -463,61 +485,76 @@ def _factored_one(
     sil_total: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """All A*B leg combinations of base pose m into ``out[m]``."""
+    """All A*B leg combinations of base poses lo..hi-1 into ``out`` (M, A, B, K, 3).
+
+    Mask slots: base camera k -> k; left variant a -> K + a K + k; right b -> K + A K + b K + k.
+    """
     base_sel = np.flatnonzero(groups == 0)
     left_sel = np.flatnonzero(groups == 1)
     right_sel = np.flatnonzero(groups == 2)
-    na = pts_left.shape[1]
-    nb_ = pts_right.shape[1]
     ncam = cams.shape[0]
-    hh = sil.shape[1]
-    ww = sil.shape[2]
-    base = np.zeros((ncam, hh, ww), dtype=np.uint64)
-    left = np.zeros((na, ncam, hh, ww), dtype=np.uint64)
-    right = np.zeros((nb_, ncam, hh, ww), dtype=np.uint64)
-    bb = np.empty((ncam, 4), dtype=np.int64)
-    lb = np.empty((na, ncam, 4), dtype=np.int64)
-    rb = np.empty((nb_, ncam, 4), dtype=np.int64)
-    for k in range(ncam):
-        h = cam_hw[k, 0]
-        w = cam_hw[k, 1]
-        _reset_bbox(bb[k])
-        render_capsules(pts_base[m], base_sel, cap_ab, radii, cams[k], h, w, base[k], bb[k])
-        for a in range(na):
-            _reset_bbox(lb[a, k])
-            render_capsules(
-                pts_left[m, a], left_sel, cap_ab, radii, cams[k], h, w, left[a, k], lb[a, k]
-            )
-        for b in range(nb_):
-            _reset_bbox(rb[b, k])
-            render_capsules(
-                pts_right[m, b], right_sel, cap_ab, radii, cams[k], h, w, right[b, k], rb[b, k]
-            )
-    for k in range(ncam):
-        sk = sil[k]
-        bk = base[k]
-        for a in range(na):
-            lk = left[a, k]
-            y0a = min(bb[k, 0], lb[a, k, 0])
-            y1a = max(bb[k, 1], lb[a, k, 1])
-            w0a = min(bb[k, 2], lb[a, k, 2])
-            w1a = max(bb[k, 3], lb[a, k, 3])
+    nslots = ncam * (1 + na + nb_)
+    mask = np.zeros((nslots, sil.shape[1], sil.shape[2]), dtype=np.uint64)
+    bbox = np.empty((nslots, 4), dtype=np.int64)
+    lofs = ncam
+    rofs = ncam + na * ncam
+    for m in range(lo, hi):
+        for k in range(ncam):
+            h = cam_hw[k, 0]
+            w = cam_hw[k, 1]
+            _reset_bbox(bbox, k)
+            render_capsules(pts_base, m, base_sel, cap_ab, radii, cams, k, h, w, mask, k, bbox)
+            for a in range(na):
+                sl = lofs + a * ncam + k
+                _reset_bbox(bbox, sl)
+                render_capsules(
+                    pts_left, m * na + a, left_sel, cap_ab, radii, cams, k, h, w, mask, sl, bbox
+                )
             for b in range(nb_):
-                rk = right[b, k]
-                y0 = min(y0a, rb[b, k, 0])
-                y1 = max(y1a, rb[b, k, 1])
-                w0 = min(w0a, rb[b, k, 2])
-                w1 = max(w1a, rb[b, k, 3])
-                tot = 0
-                com = 0
-                for y in range(y0, y1 + 1):
-                    for x in range(w0, w1 + 1):
-                        v = bk[y, x] | lk[y, x] | rk[y, x]
-                        tot += popcount64(v)
-                        com += popcount64(v & sk[y, x])
-                out[m, a, b, k, 0] = com
-                out[m, a, b, k, 1] = sil_total[k] - com
-                out[m, a, b, k, 2] = tot - com
+                sr = rofs + b * ncam + k
+                _reset_bbox(bbox, sr)
+                render_capsules(
+                    pts_right,
+                    m * nb_ + b,
+                    right_sel,
+                    cap_ab,
+                    radii,
+                    cams,
+                    k,
+                    h,
+                    w,
+                    mask,
+                    sr,
+                    bbox,
+                )
+        for k in range(ncam):
+            for a in range(na):
+                sl = lofs + a * ncam + k
+                y0a = min(bbox[k, 0], bbox[sl, 0])
+                y1a = max(bbox[k, 1], bbox[sl, 1])
+                w0a = min(bbox[k, 2], bbox[sl, 2])
+                w1a = max(bbox[k, 3], bbox[sl, 3])
+                for b in range(nb_):
+                    sr = rofs + b * ncam + k
+                    y0 = min(y0a, bbox[sr, 0])
+                    y1 = max(y1a, bbox[sr, 1])
+                    w0 = min(w0a, bbox[sr, 2])
+                    w1 = max(w1a, bbox[sr, 3])
+                    tot = 0
+                    com = 0
+                    for y in range(y0, y1 + 1):
+                        for x in range(w0, w1 + 1):
+                            v = mask[k, y, x] | mask[sl, y, x] | mask[sr, y, x]
+                            tot += popcount64(v)
+                            com += popcount64(v & sil[k, y, x])
+                    out[m, a, b, k, 0] = com
+                    out[m, a, b, k, 1] = sil_total[k] - com
+                    out[m, a, b, k, 2] = tot - com
+        # clear what was drawn for the next base pose
+        for sl in range(nslots):
+            for y in range(bbox[sl, 0], bbox[sl, 1] + 1):
+                for x in range(bbox[sl, 2], bbox[sl, 3] + 1):
+                    mask[sl, y, x] = 0
 
 
 @nb.njit(cache=True, parallel=True)
@@ -525,6 +562,8 @@ def counts_factored_kernel(
     pts_base: np.ndarray,
     pts_left: np.ndarray,
     pts_right: np.ndarray,
+    na: int,
+    nb_: int,
     groups: np.ndarray,
     cap_ab: np.ndarray,
     radii: np.ndarray,
@@ -532,22 +571,27 @@ def counts_factored_kernel(
     cam_hw: np.ndarray,
     sil: np.ndarray,
     sil_total: np.ndarray,
+    nchunks: int,
 ) -> np.ndarray:
     """Counts of every (base m, left variant a, right variant b): (M, A, B, K, 3) int64.
 
-    ``pts_base`` (M, P, 3), ``pts_left`` (M, A, P, 3), ``pts_right`` (M, B, P, 3): model points;
-    ``groups`` (C,) int64 tells which capsules each supplies (0 base, 1 left leg, 2 right leg).
-    Each part is rendered once; the A*B combinations are OR-ed and counted inside the union
-    bounding box. Other arguments as in :func:`counts_kernel`.
+    ``pts_base`` (M, P, 3), ``pts_left`` (M * A, P, 3), ``pts_right`` (M * B, P, 3): model
+    points; ``groups`` (C,) int64 tells which capsules each supplies (0 base, 1 left leg,
+    2 right leg). Each part is rendered once; the A*B combinations are OR-ed and counted inside
+    the union bounding box. Other arguments as in :func:`counts_kernel`.
     """
     m_n = pts_base.shape[0]
-    out = np.zeros((m_n, pts_left.shape[1], pts_right.shape[1], cams.shape[0], 3), dtype=np.int64)
-    for m in nb.prange(m_n):
-        _factored_one(
-            m,
+    out = np.zeros((m_n, na, nb_, cams.shape[0], 3), dtype=np.int64)
+    nchunks = max(1, min(m_n, nchunks))
+    for ch in nb.prange(nchunks):
+        _factored_range(
+            ch * m_n // nchunks,
+            (ch + 1) * m_n // nchunks,
             pts_base,
             pts_left,
             pts_right,
+            na,
+            nb_,
             groups,
             cap_ab,
             radii,
@@ -562,14 +606,21 @@ def counts_factored_kernel(
 
 @nb.njit(cache=True)
 def render_one_kernel(
-    pts: np.ndarray, cap_ab: np.ndarray, radii: np.ndarray, cam: np.ndarray, height: int, width: int
+    pts: np.ndarray,
+    cap_ab: np.ndarray,
+    radii: np.ndarray,
+    cams: np.ndarray,
+    k: int,
+    height: int,
+    width: int,
 ) -> np.ndarray:
-    """The bit-packed mask (height, ceil(width / 64)) of one pose (P, 3) in one camera."""
-    mask = np.zeros((height, (width + 63) // 64), dtype=np.uint64)
-    bbox = np.empty(4, dtype=np.int64)
-    _reset_bbox(bbox)
-    render_capsules(pts, np.arange(cap_ab.shape[0]), cap_ab, radii, cam, height, width, mask, bbox)
-    return mask
+    """The bit-packed mask (height, ceil(width / 64)) of pose 0 of ``pts`` in camera k."""
+    mask = np.zeros((1, height, (width + 63) // 64), dtype=np.uint64)
+    bbox = np.empty((1, 4), dtype=np.int64)
+    _reset_bbox(bbox, 0)
+    sel = np.arange(cap_ab.shape[0])
+    render_capsules(pts, 0, sel, cap_ab, radii, cams, k, height, width, mask, 0, bbox)
+    return mask[0]
 
 
 def pack_rows(image: np.ndarray, words: int | None = None) -> np.ndarray:
