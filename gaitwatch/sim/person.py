@@ -360,10 +360,11 @@ class BodyModel:
                 bottom = mid_hip + 0.5 * (knee_mid - mid_hip)
                 colour = col["trousers"] * 0.6 + 0.4 * col["shirt"]
             sep = kp[L_KNEE] - kp[R_KNEE]
-            a_hem = max(0.15 * S * g, 0.5 * abs(sep @ lp) + 0.06 * S)
-            b_hem = max(0.12 * S * g, 0.5 * abs(sep @ fwd) + 0.06 * S)
             a_top = 0.088 * S * g + shirt_extra + 0.004 * S
             b_top = 0.066 * S * g * belly + shirt_extra + 0.004 * S
+            # the hem flares a little and opens with the knees' spread (legs stay inside)
+            a_hem = max(1.15 * a_top, 0.5 * abs(sep @ lp) + 0.05 * S * g**0.5)
+            b_hem = max(1.1 * b_top, 0.5 * abs(sep @ fwd) + 0.05 * S * g**0.5)
             parts.append(
                 tube(top, bottom, lp, [0.0, 0.0, 0.35, 1.0, 1.0], [0.0] * 5,
                      [0.0, a_top, 0.6 * a_top + 0.4 * a_hem, a_hem, 0.96 * a_hem],

@@ -44,7 +44,7 @@ SHAPE_PRESETS: dict[str, tuple[float | None, float, float]] = {
     "default": (None, 1.0, 1.0),
     "tall": (1.92, 0.95, 1.0),
     "short": (1.55, 1.0, 1.05),
-    "heavy": (None, 1.32, 1.6),
+    "heavy": (None, 1.25, 1.35),
     "slim": (None, 0.82, 0.9),
 }
 
