@@ -51,6 +51,27 @@ def weight_from_counts(counts: np.ndarray, measure: Measure = "iou") -> np.ndarr
     return w.mean(axis=-1)
 
 
+def warm_up() -> float:
+    """Compile (or load from numba's cache) every likelihood kernel now; returns seconds taken.
+
+    The first call of each kernel in a fresh environment compiles it (tens of seconds on a busy
+    2-core machine); with ``cache=True`` later processes load it in well under a second.
+    """
+    import time
+
+    from tracker.camera import Camera
+
+    t = time.perf_counter()
+    body = BodyModel()
+    cam = Camera.look_at(name="warm-up", position=[4, 0, 1.5], target=[0, 0, 0.9])
+    lik = SilhouetteLikelihood(body, [cam.scaled(64, 48)])
+    pose = body.neutral_pose()
+    lik.set_silhouettes([lik.render_mask(pose, 0)])
+    lik.weights(pose)
+    lik.weights_factored(pose[None], np.zeros((1, 1, 6)), np.zeros((1, 1, 6)))
+    return time.perf_counter() - t
+
+
 class SilhouetteLikelihood:
     """Weights of poses against binary silhouettes seen by calibrated cameras.
 
