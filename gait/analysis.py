@@ -77,7 +77,7 @@ class _Angles:
         self.trunk_ap, self.trunk_ml = trunk_lean(p, forward)
 
 
-def _stride_kinematics(st: StrideCalc, ang: _Angles, fps: float, t0: float) -> dict:
+def _stride_kinematics(st: StrideCalc, ang: _Angles) -> dict:
     knee = stride_curve(ang.knee[st.side], st.f0, st.f1)
     hip = stride_curve(ang.hip[st.side], st.f0, st.f1)
     out: dict = {"knee_curve": knee, "hip_curve": hip}
@@ -221,7 +221,7 @@ def analyse(
     bout_of = {id(s): b for b, g in enumerate(groups) for s in g}
 
     ang = _Angles(prep, forward)
-    kin = {id(s): _stride_kinematics(s, ang, prep.fps, prep.times[0]) for s in strides}
+    kin = {id(s): _stride_kinematics(s, ang) for s in strides}
 
     com = centre_of_mass(prep.positions)
     com = np.where(np.isfinite(com), com, prep.positions[:, SACRUM])

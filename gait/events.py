@@ -160,15 +160,21 @@ def _refine_heel_strike(r: np.ndarray, fps: float, frame: float, fraction: float
         possible, e.g. at the end of the recording).
     """
     k = int(np.floor(frame))
-    rv = np.gradient(r, 1.0 / fps) if r.size > 1 else np.zeros_like(r)
-    stance = rv[k + max(1, int(round(0.1 * fps))) : k + int(round(0.3 * fps)) + 1]
+    # Local derivative only (from k - 1), so the cost does not grow with the recording.
+    lo = max(k - 1, 0)
+    local = r[lo : k + int(round(0.3 * fps)) + 2]
+    if local.size < 2:
+        return frame
+    rv = np.gradient(local, 1.0 / fps)
+    off = k - lo  # index of frame k in rv
+    stance = rv[off + max(1, int(round(0.1 * fps))) : off + int(round(0.3 * fps)) + 1]
     if stance.size == 0 or not np.isfinite(stance).any():
         return frame
     v_walk = -float(np.nanmedian(stance))
     if not v_walk > 0:
         return frame
     thr = -fraction * v_walk
-    seg = rv[k : k + int(round(0.3 * fps)) + 1]
+    seg = rv[off : off + int(round(0.3 * fps)) + 1]
     with np.errstate(invalid="ignore"):
         below = np.flatnonzero(seg <= thr)
     if below.size == 0 or below[0] == 0:

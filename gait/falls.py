@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gait.filtering import fill_short_gaps, lowpass
+from gait.filtering import fill_short_gaps, lowpass, nan_runs
 from gaitwatch.conventions import HEAD, SACRUM
 
 
@@ -71,26 +71,21 @@ def detect_falls(
         fast = down > s.descent_speed_m_s
     out: list[FallCalc] = []
     n = times.size
-    i = 0
     settle = int(round(s.settle_s * fps))
-    while i < n:
-        if not fast[i]:
-            i += 1
+    resume = 0
+    for i, j in nan_runs(fast):  # runs of fast descent
+        if i < resume:
             continue
-        j = i
-        while j < n and fast[j]:
-            j += 1
         peak = int(i + np.nanargmax(down[i:j]))
         # Start: where the descent began (downward speed above 0.3 m/s).
-        k = peak
-        while k > 0 and np.isfinite(down[k - 1]) and down[k - 1] > 0.3:
-            k -= 1
+        with np.errstate(invalid="ignore"):
+            slow = np.flatnonzero(~(down[:peak] > 0.3))
+        k = int(slow[-1]) + 1 if slow.size else 0
         lim = min(n, j + settle)
         with np.errstate(invalid="ignore"):
             floor = (sac[j:lim] < s.floor_sacrum_m) & ~(head[j:lim] > s.floor_head_m)
         hit = np.flatnonzero(floor)
         if hit.size == 0:
-            i = j
             continue
         impact = j + int(hit[0])
         # On the floor until the sacrum is up again (NaN frames count as on the floor).
@@ -109,5 +104,5 @@ def detect_falls(
                 got_up=got_up,
             )
         )
-        i = max(stop, j) + 1
+        resume = max(stop, j) + 1
     return out

@@ -76,6 +76,13 @@ def quiet_nanmean(x: np.ndarray, axis: int | None = None) -> np.ndarray:
         return np.nanmean(x, axis=axis)
 
 
+def quiet_nanmedian(x: np.ndarray, axis: int | None = None) -> np.ndarray:
+    """``np.nanmedian`` without the warning for all-NaN slices (which give NaN)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanmedian(x, axis=axis)
+
+
 def uniform_grid(traj: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Place the frames of ``traj`` on a uniform grid of frame numbers.
 

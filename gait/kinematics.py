@@ -79,18 +79,20 @@ def trunk_lean(positions: np.ndarray, forward: np.ndarray) -> tuple[np.ndarray, 
 
 
 def stride_curve(angle: np.ndarray, f0: float, f1: float) -> np.ndarray:
-    """Resample ``angle`` (N,) between fractional frames f0 and f1 to 101 points."""
-    idx = np.linspace(f0, f1, N_CURVE)
-    base = np.arange(angle.size, dtype=np.float64)
-    ok = np.isfinite(angle)
-    if ok.sum() < 2 or f0 < 0 or f1 > angle.size - 1:
+    """Resample ``angle`` (N,) between fractional frames f0 and f1 to 101 points.
+
+    Samples whose two neighbouring frames are not both known are NaN.
+    """
+    if f0 < 0 or f1 > angle.size - 1 or not f1 > f0:
         return np.full(N_CURVE, np.nan)
-    out = np.interp(idx, base[ok], angle[ok])
-    # Samples whose neighbours are unknown stay unknown.
-    lo = np.clip(np.floor(idx).astype(int), 0, angle.size - 1)
-    hi = np.clip(lo + 1, 0, angle.size - 1)
-    out[~(ok[lo] & ok[hi])] = np.nan
-    return out
+    a = int(np.floor(f0))
+    b = min(int(np.ceil(f1)) + 1, angle.size)
+    seg = angle[a:b]
+    idx = np.linspace(f0, f1, N_CURVE) - a
+    lo = np.clip(np.floor(idx).astype(int), 0, seg.size - 1)
+    hi = np.clip(lo + 1, 0, seg.size - 1)
+    w = idx - lo
+    return (1 - w) * seg[lo] + w * seg[hi]
 
 
 @dataclass

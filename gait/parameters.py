@@ -17,13 +17,14 @@ Definitions (docs/gait.md has the references):
 
 from __future__ import annotations
 
+import bisect
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from gait.events import GaitEvent
-from gait.filtering import Prepared
+from gait.filtering import Prepared, quiet_nanmean, quiet_nanmedian
 from gait.geometry import unit
 from gaitwatch.conventions import side_index
 
@@ -65,29 +66,46 @@ def _interp_rows(x: np.ndarray, f: float) -> np.ndarray:
     return (1 - w) * x[i] + w * x[j]
 
 
-def foot_placement(
-    prep: Prepared, side: str, frame: float, settings: StrideSettings, forward: np.ndarray
-) -> np.ndarray:
-    """Horizontal foot placement (x, y) in metres after the heel strike at fractional ``frame``."""
+def foot_points(prep: Prepared, side: str) -> np.ndarray:
+    """Horizontal heel positions of one foot (ankle where the heel is unknown), shape (N, 2)."""
     heel = prep.positions[:, side_index(side, "heel")]
     ankle = prep.positions[:, side_index(side, "ankle")]
-    pts = np.where(np.isfinite(heel), heel, ankle)[:, :2]
+    return np.where(np.isfinite(heel), heel, ankle)[:, :2]
+
+
+def foot_placement(
+    prep: Prepared,
+    pts: np.ndarray,
+    frame: float,
+    settings: StrideSettings,
+    forward_mean: np.ndarray | None = None,
+) -> np.ndarray:
+    """Horizontal foot placement (x, y) in metres after the heel strike at fractional ``frame``.
+
+    Parameters
+    ----------
+    pts : ndarray, shape (N, 2)
+        :func:`foot_points` of the foot.
+    forward_mean : ndarray, shape (2,), optional
+        Mean walking direction, for the treadmill belt shift.
+    """
     a = int(np.ceil(frame))
     b = max(a + 1, int(np.ceil(frame + settings.placement_window_s * prep.fps)) + 1)
     win = pts[a:b]
-    if settings.treadmill_speed_m_s:
-        fw = np.nanmean(forward[:, :2], axis=0)
-        fw = fw / np.linalg.norm(fw)
+    if settings.treadmill_speed_m_s and forward_mean is not None:
         shift = settings.treadmill_speed_m_s * (prep.times[a:b] - prep.times[0])
-        win = win + shift[:, None] * fw[None, :]
+        win = win + shift[:, None] * forward_mean[None, :]
     if win.size == 0 or not np.isfinite(win).any():
         return np.full(2, np.nan)
-    return np.nanmedian(win, axis=0)
+    if np.isfinite(win).all():
+        return np.median(win, axis=0)
+    return quiet_nanmedian(win, axis=0)
 
 
 def _first(times: list[float], lo: float, hi: float) -> float | None:
-    inside = [t for t in times if lo < t < hi]
-    return inside[0] if inside else None
+    """First of the sorted ``times`` strictly between lo and hi, or None."""
+    i = bisect.bisect_right(times, lo)
+    return times[i] if i < len(times) and times[i] < hi else None
 
 
 def compute_strides(
@@ -121,6 +139,9 @@ def compute_strides(
         by.setdefault((e.side, e.type), []).append(e)
     dt = 1.0 / prep.fps
     t_first = float(prep.times[0])
+    pts = {side: foot_points(prep, side) for side in ("left", "right")}
+    fw = quiet_nanmean(forward[:, :2], axis=0)
+    fw = fw / np.linalg.norm(fw) if np.isfinite(fw).all() and np.linalg.norm(fw) > 0 else None
 
     def frame_of(e: GaitEvent) -> float:
         return e.frame if np.isfinite(e.frame) else (e.time_s - t_first) / dt
@@ -129,24 +150,25 @@ def compute_strides(
     for side in ("left", "right"):
         hs = by.get((side, "heel_strike"), [])
         to = [e.time_s for e in by.get((side, "toe_off"), [])]
-        c_hs = [e for e in by.get((OTHER[side], "heel_strike"), [])]
+        c_hs = by.get((OTHER[side], "heel_strike"), [])
+        c_hs_t = [e.time_s for e in c_hs]
         c_to = [e.time_s for e in by.get((OTHER[side], "toe_off"), [])]
         for a, b in zip(hs[:-1], hs[1:], strict=True):
             t0, t1 = a.time_s, b.time_s
             T = t1 - t0
             if not s.min_stride_s <= T <= s.max_stride_s:
                 continue
-            inside = [e for e in c_hs if t0 < e.time_s < t1]
-            if not inside:
+            ci = bisect.bisect_right(c_hs_t, t0)
+            if ci >= len(c_hs) or not c_hs_t[ci] < t1:
                 continue
-            c = inside[0]
+            c = c_hs[ci]
             st = StrideCalc(side, t0, t1, frame_of(a), frame_of(b))
             st.toe_off = _first(to, t0, t1)
             st.contra_strike = c.time_s
             st.contra_toe_off = _first(c_to, t0, st.toe_off if st.toe_off else c.time_s)
-            p0 = foot_placement(prep, side, st.f0, s, forward)
-            p1 = foot_placement(prep, side, st.f1, s, forward)
-            pc = foot_placement(prep, OTHER[side], frame_of(c), s, forward)
+            p0 = foot_placement(prep, pts[side], st.f0, s, fw)
+            p1 = foot_placement(prep, pts[side], st.f1, s, fw)
+            pc = foot_placement(prep, pts[OTHER[side]], frame_of(c), s, fw)
             d = p1 - p0
             L = float(np.hypot(*d))
             u = unit(d)

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gait.filtering import fill_short_gaps, lowpass
+from gait.filtering import fill_short_gaps, lowpass, nan_runs
 from gait.geometry import body_forward, heading_angle
 from gaitwatch.conventions import SACRUM
 
@@ -51,15 +51,11 @@ def _states(h: np.ndarray, s: TransferSettings, fps: float) -> list[tuple[str, i
         lab[h < s.sit_fraction] = "sit"
         lab[h > s.stand_fraction] = "stand"
     runs = []
-    i = 0
-    n = h.size
-    while i < n:
-        j = i
-        while j < n and lab[j] == lab[i]:
-            j += 1
-        if lab[i] and (j - i) / fps >= s.min_state_s:
-            runs.append((str(lab[i]), i, j))
-        i = j
+    for name in ("sit", "stand"):
+        for a, b in nan_runs(lab == name):
+            if (b - a) / fps >= s.min_state_s:
+                runs.append((name, a, b))
+    runs.sort(key=lambda r: r[1])
     merged: list[tuple[str, int, int]] = []
     for r in runs:
         if merged and merged[-1][0] == r[0]:
