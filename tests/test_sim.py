@@ -137,6 +137,26 @@ def test_rasterizer_coverage_and_depth_order() -> None:
     assert lab[6, 40] == 1 and lab[38, 48] == 0
 
 
+def test_body_mesh_normals_point_outwards() -> None:
+    from gaitwatch.sim.person import BodyModel
+    from gaitwatch.sim.scene import BodyShape, Clothing, resolve_body
+
+    tr = procedural_walk(distance_m=1.0)
+    body = resolve_body(BodyShape(), Clothing(), 1.75, np.random.default_rng(0))
+    kp = tr.positions[10]
+    mesh = BodyModel(body).mesh(kp)
+    assert np.isfinite(mesh.vertices).all() and mesh.triangles.max() < len(mesh.vertices)
+    np.testing.assert_allclose(np.linalg.norm(mesh.normals, axis=1), 1.0, atol=1e-9)
+    # vertices of the head ellipsoid: normals point away from the head centre
+    near_head = np.linalg.norm(mesh.vertices - kp[HEAD], axis=1) < 0.13
+    top = near_head & (mesh.vertices[:, 2] > kp[HEAD, 2] + 0.05)
+    assert top.sum() > 10
+    assert (np.sum(mesh.normals[top] * (mesh.vertices[top] - kp[HEAD]), axis=1) > 0).all()
+    # the body is wider than its skeleton: every key point lies inside the mesh's bounds
+    lo, hi = mesh.vertices.min(0), mesh.vertices.max(0)
+    assert (kp >= lo - 1e-9).all() and (kp <= hi + 1e-9).all()
+
+
 # -- the written scene ---------------------------------------------------------------------------
 
 
