@@ -286,13 +286,13 @@ def analyse(
     )
 
     h_stand = standing_height(prep)
-    labels = posture_labels(prep, spans, h_stand, bset)
+    tset = TransferSettings()
+    transfers = detect_transfers(prep.positions, prep.times, prep.fps, h_stand, tset)
+    labels = posture_labels(prep, spans, h_stand, bset, [(t.start_s, t.end_s) for t in transfers])
     report.activities = [
         Activity(type=lab, start_s=a, end_s=b)  # type: ignore[arg-type]
         for lab, a, b in activity_segments(prep.times, labels, bset.min_activity_s)
     ]
-    tset = TransferSettings()
-    transfers = detect_transfers(prep.positions, prep.times, prep.fps, h_stand, tset)
     report.transfers = [
         Transfer(type=t.type, start_s=t.start_s, end_s=t.end_s, duration_s=t.end_s - t.start_s)  # type: ignore[arg-type]
         for t in transfers

@@ -2,7 +2,8 @@
 
 A walking bout is a run of consecutive straight strides (each stride overlaps or touches the
 previous one, the walking direction turns less than ``max_turn_deg`` over each stride) with at
-least ``min_strides`` strides of either foot. Everything else is classified frame by frame from
+least ``min_strides`` strides of either foot, each at least ``min_stride_length_m`` long (not
+stepping on the spot). Everything else is classified frame by frame from
 the posture: lying (trunk more than ``lying_trunk_deg`` from vertical, or head low), sitting
 (sacrum below ``sitting_height_fraction`` of its standing height), turning (upright with the
 facing direction turning faster than ``turn_rate_deg_s``), walking (upright, in a bout or with
@@ -29,6 +30,7 @@ class BoutSettings:
 
     min_strides: int = 2
     max_turn_deg: float = 30.0
+    min_stride_length_m: float = 0.15
     max_link_gap_s: float = 0.05
     sitting_height_fraction: float = 0.7
     lying_trunk_deg: float = 60.0
@@ -74,7 +76,9 @@ def group_bouts(strides: Sequence[StrideCalc], settings: BoutSettings) -> list[l
     end = -np.inf
     for st in sorted(strides, key=lambda s: s.t0):
         straight = st.values.get("turn_deg", 0.0) <= settings.max_turn_deg
-        if not straight:
+        # Stepping on the spot (or a treadmill without its belt speed) is not walking.
+        moves = not st.values.get("stride_length_m", np.inf) < settings.min_stride_length_m
+        if not (straight and moves):
             if len(cur) >= settings.min_strides:
                 bouts.append(cur)
             cur, end = [], -np.inf
@@ -95,8 +99,12 @@ def posture_labels(
     bout_spans: Sequence[tuple[float, float]],
     stand_height: float,
     settings: BoutSettings,
+    transfer_spans: Sequence[tuple[float, float]] = (),
 ) -> np.ndarray:
-    """Activity label per frame of the prepared grid, array of str, shape (N,)."""
+    """Activity label per frame of the prepared grid, array of str, shape (N,).
+
+    Bouts win over transfers, transfers over posture.
+    """
     pos = prep.positions
     n = prep.n
     labels = np.full(n, "unknown", dtype=object)
@@ -125,6 +133,8 @@ def posture_labels(
     labels[turning] = "turning"
     labels[sitting & np.isfinite(sac)] = "sitting"
     labels[lying & (np.isfinite(sac) | np.isfinite(head))] = "lying"
+    for t0, t1 in transfer_spans:
+        labels[(prep.times >= t0) & (prep.times <= t1)] = "transfer"
     for t0, t1 in bout_spans:
         labels[(prep.times >= t0) & (prep.times <= t1)] = "walking"
     return labels

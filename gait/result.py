@@ -149,7 +149,7 @@ class Bout(GaitParameters):
 class Activity(_Model):
     """A segment of the recording with one activity."""
 
-    type: Literal["walking", "turning", "standing", "sitting", "lying", "unknown"]
+    type: Literal["walking", "turning", "standing", "sitting", "lying", "transfer", "unknown"]
     start_s: float
     end_s: float
 

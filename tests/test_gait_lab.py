@@ -119,6 +119,18 @@ def test_sit_down_and_stand_up_twice(shared_data: Path) -> None:
         assert 0.2 <= t.duration_s <= 3.0
     assert rep.falls == []
     assert rep.bouts == []
+    kinds = [a.type for a in rep.activities]
+    assert kinds.count("sitting") == 2 and kinds.count("transfer") == 4
+
+
+def test_a_turn_ends_the_bout(shared_data: Path) -> None:
+    rep = analyse(mocap.load_mocap(shared_file(shared_data, "cmu/16_18.bvh")))
+    turns = [a for a in rep.activities if a.type == "turning"]
+    assert len(turns) == 1
+    turning = [s for s in rep.strides if s.turn_deg > 30]
+    assert turning, "the 90-degree turn should show in the strides"
+    assert all(s.bout is None for s in turning)
+    assert len(rep.bouts) == 1 and rep.bouts[0].end_s <= turns[0].start_s + 0.1
 
 
 def test_cmu_walks_give_one_bout_each(shared_data: Path) -> None:

@@ -126,6 +126,22 @@ def test_standing_still_gives_no_walking() -> None:
     json.dumps(rep.to_json_dict(), allow_nan=False)
 
 
+def test_stepping_on_the_spot_is_not_walking() -> None:
+    # A treadmill-like walk seen without its belt: the feet cycle, the body does not progress.
+    traj = synthetic_walk(speed_m_s=1.0, cadence_steps_min=105, fps=30)
+    belt = 1.0 * (traj.times - traj.times[0])
+    pos = traj.positions.copy()
+    pos[..., 0] -= belt[:, None]
+    rep = analyse(Trajectory(positions=pos, times=traj.times, fps=30))
+    assert len(rep.events) > 10 and rep.bouts == []
+    assert rep.risk.level == "unknown"
+    tread = analyse(
+        Trajectory(positions=pos, times=traj.times, fps=30), GaitConfig(treadmill_speed_m_s=1.0)
+    )
+    assert len(tread.bouts) == 1
+    assert tread.summary.walking_speed_m_s == pytest.approx(1.0, rel=0.02)
+
+
 def test_a_single_step_is_not_a_bout() -> None:
     traj = synthetic_walk(n_strides=1, fps=30, lead_in_s=0.1)
     rep = analyse(traj)
