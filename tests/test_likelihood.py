@@ -197,6 +197,10 @@ def test_weights_factored_equals_expanded(body: BodyModel, cameras: list[Camera]
     m, na, nb_ = 6, 5, 4
     base = _random_poses(body, rng, m)
     base[:, 2] = body.root_height
+    # lying and leaning bodies too: leg rows above, beside and across the upper body's rows
+    base[0, DOF["root_pitch"]] = np.radians(85)
+    base[1, DOF["root_roll"]] = np.radians(80)
+    base[1, DOF["root_z"]] = 0.3
     left = base[:, None, list(LEFT_LEG)] + rng.normal(0, 0.3, (m, na, 6))
     right = base[:, None, list(RIGHT_LEG)] + rng.normal(0, 0.3, (m, nb_, 6))
     lik = SilhouetteLikelihood(body, cameras)

@@ -498,6 +498,8 @@ def _factored_range(
     bbox = np.empty((nslots, 4), dtype=np.int64)
     lofs = ncam
     rofs = ncam + na * ncam
+    # cum[y] = (model, common) pixels of the base in rows < y, from its first row on
+    cum = np.zeros((sil.shape[1] + 1, 2), dtype=np.int64)
     for m in range(lo, hi):
         for k in range(ncam):
             h = cam_hw[k, 0]
@@ -528,25 +530,41 @@ def _factored_range(
                     bbox,
                 )
         for k in range(ncam):
+            # per-row prefix sums of the base alone: rows without leg pixels need no OR
+            b_tot = 0
+            b_com = 0
+            if bbox[k, 0] <= bbox[k, 1]:
+                cum[bbox[k, 0], 0] = 0
+                cum[bbox[k, 0], 1] = 0
+            for y in range(bbox[k, 0], bbox[k, 1] + 1):
+                for x in range(bbox[k, 2], bbox[k, 3] + 1):
+                    v = mask[k, y, x]
+                    b_tot += popcount64(v)
+                    b_com += popcount64(v & sil[k, y, x])
+                cum[y + 1, 0] = b_tot
+                cum[y + 1, 1] = b_com
             for a in range(na):
                 sl = lofs + a * ncam + k
-                y0a = min(bbox[k, 0], bbox[sl, 0])
-                y1a = max(bbox[k, 1], bbox[sl, 1])
-                w0a = min(bbox[k, 2], bbox[sl, 2])
-                w1a = max(bbox[k, 3], bbox[sl, 3])
                 for b in range(nb_):
                     sr = rofs + b * ncam + k
-                    y0 = min(y0a, bbox[sr, 0])
-                    y1 = max(y1a, bbox[sr, 1])
-                    w0 = min(w0a, bbox[sr, 2])
-                    w1 = max(w1a, bbox[sr, 3])
-                    tot = 0
-                    com = 0
-                    for y in range(y0, y1 + 1):
-                        for x in range(w0, w1 + 1):
-                            v = mask[k, y, x] | mask[sl, y, x] | mask[sr, y, x]
-                            tot += popcount64(v)
-                            com += popcount64(v & sil[k, y, x])
+                    tot = b_tot
+                    com = b_com
+                    y0 = min(bbox[sl, 0], bbox[sr, 0])
+                    y1 = max(bbox[sl, 1], bbox[sr, 1])
+                    if y0 <= y1:
+                        # replace the base's count over the legs' rows by the OR-ed count
+                        ya = min(max(y0, bbox[k, 0]), bbox[k, 1] + 1)
+                        yb = min(max(y1 + 1, bbox[k, 0]), bbox[k, 1] + 1)
+                        if yb > ya:
+                            tot -= cum[yb, 0] - cum[ya, 0]
+                            com -= cum[yb, 1] - cum[ya, 1]
+                        w0 = min(bbox[k, 2], bbox[sl, 2], bbox[sr, 2])
+                        w1 = max(bbox[k, 3], bbox[sl, 3], bbox[sr, 3])
+                        for y in range(y0, y1 + 1):
+                            for x in range(w0, w1 + 1):
+                                v = mask[k, y, x] | mask[sl, y, x] | mask[sr, y, x]
+                                tot += popcount64(v)
+                                com += popcount64(v & sil[k, y, x])
                     out[m, a, b, k, 0] = com
                     out[m, a, b, k, 1] = sil_total[k] - com
                     out[m, a, b, k, 2] = tot - com
