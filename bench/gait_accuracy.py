@@ -30,7 +30,7 @@ from gait.analysis import GaitConfig, analyse
 from gait.evaluation import add_noise, match_events, parameter_errors_pct, resample
 from gait.kinematics import knee_indicators_series
 from gait.synthetic import synthetic_walk
-from gaitwatch.mocap import load_mocap, load_trc_with_grf, read_mot
+from gaitwatch.mocap import load_mocap, load_trc_with_grf, read_c3d_markers, read_mot
 from gaitwatch.trajectory import Trajectory
 
 REPO = Path(__file__).resolve().parents[1]
@@ -119,6 +119,28 @@ def main() -> None:
         print(
             f"angles-{f}.mot{'':8s} {m['min_stance_flexion_deg']:10.1f} "
             f"{m['peak_swing_flexion_deg']:10.1f} {m['rom_deg']:6.1f} {m['mean_flexion_deg']:6.1f}"
+        )
+    print()
+    print("joint angles from the key points vs Plug-in Gait (gait-pig.c3d, laboratory strides)")
+    path = a.data / "c3d" / "gait-pig.c3d"
+    traj = load_mocap(path)
+    rep = analyse(traj, events=traj.events)
+    m = read_c3d_markers(path)
+    names = [lab.split(":")[-1] for lab in m.labels]
+    scale = 1000.0 if np.nanmax(np.abs(m.xyz[:, names.index("LKneeAngles"), 0])) < 2 else 1.0
+    print(
+        f"{'stride':14s} {'hip ROM':>15s} {'knee peak swing':>17s} {'knee ROM':>15s}   (ours / PiG)"
+    )
+    for st in rep.strides:
+        p = "L" if st.side == "left" else "R"
+        sl = slice(int(round(st.start_s * m.rate)), int(round(st.end_s * m.rate)) + 1)
+        hip = m.xyz[sl, names.index(f"{p}HipAngles"), 0] * scale
+        knee = m.xyz[sl, names.index(f"{p}KneeAngles"), 0] * scale
+        hip_rom = np.nanmax(hip) - np.nanmin(hip)
+        print(
+            f"{st.side:5s} {st.start_s:5.2f} s   {st.hip_rom_deg:6.1f} / {hip_rom:5.1f}"
+            f"   {st.knee_peak_swing_flexion_deg:7.1f} / {np.nanmax(knee):5.1f}"
+            f"   {st.knee_rom_deg:6.1f} / {np.nanmax(knee) - np.nanmin(knee):5.1f}"
         )
     print()
     traj = load(a.data, RECORDINGS[2][1])

@@ -7,7 +7,8 @@ Angles are in degrees. Conventions:
 - Hip flexion: in the sagittal plane (walking direction, vertical), the thigh's angle from the
   trunk's downward axis, positive with the thigh in front of the trunk. The key points carry no
   pelvis orientation, so the reference is the trunk (sacrum -> neck), not the pelvis as in
-  laboratory models: values are offset from Plug-in Gait hip angles by the pelvic tilt.
+  laboratory models: values are offset from Plug-in Gait hip angles by the pelvic tilt. Without
+  an upper body (lower-limb laboratory files) the reference is the vertical.
 - Trunk lean: sacrum -> neck from vertical; forward (sagittal) and sideways (frontal, positive
   to the subject's left).
 
@@ -41,12 +42,19 @@ def _angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(c))
 
 
-def trunk_vector(positions: np.ndarray) -> np.ndarray:
-    """Sacrum -> neck (mid-shoulder when the neck is unknown), shape (N, 3)."""
+def trunk_vector(positions: np.ndarray, vertical_fallback: bool = False) -> np.ndarray:
+    """Sacrum -> neck (mid-shoulder when the neck is unknown), shape (N, 3).
+
+    With ``vertical_fallback`` frames without an upper body get a vertical unit vector (for
+    lower-body laboratory recordings: hip angles then refer to the vertical).
+    """
     neck = positions[:, NECK]
     mid = 0.5 * (positions[:, L_SHOULDER] + positions[:, R_SHOULDER])
     top = np.where(np.isfinite(neck), neck, mid)
-    return top - positions[:, SACRUM]
+    t = top - positions[:, SACRUM]
+    if vertical_fallback:
+        t = np.where(np.isfinite(t).all(axis=1, keepdims=True), t, np.array([0.0, 0.0, 1.0]))
+    return t
 
 
 def knee_flexion(positions: np.ndarray, side: str) -> np.ndarray:
@@ -62,8 +70,11 @@ def _sagittal(v: np.ndarray, forward: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 def hip_flexion(positions: np.ndarray, forward: np.ndarray, side: str) -> np.ndarray:
-    """Hip flexion (thigh relative to trunk, sagittal plane) in degrees, shape (N,)."""
-    ta, tb = _sagittal(trunk_vector(positions), forward)
+    """Hip flexion (thigh relative to trunk, sagittal plane) in degrees, shape (N,).
+
+    Where the upper body is unknown the trunk is taken as vertical.
+    """
+    ta, tb = _sagittal(trunk_vector(positions, vertical_fallback=True), forward)
     thigh = positions[:, side_index(side, "knee")] - positions[:, side_index(side, "hip")]
     ha, hb = _sagittal(thigh, forward)
     return np.degrees(np.arctan2(ha, -hb) + np.arctan2(ta, tb))
