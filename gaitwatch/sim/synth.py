@@ -157,6 +157,8 @@ def default_cameras(truth: Trajectory, config: SceneConfig) -> list[Camera]:
 def _lighting(
     config: SceneConfig, n: int, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray]:
+    """Gain (n,) and lamp level (n,) per frame: three slow sines (2-12 s periods) with gain 1 at
+    frame 0 and |gain - 1| <= drift_amplitude; ``switch`` turns the lamp off over two frames."""
     lt = config.lighting
     t = np.arange(n) / config.fps
     gain = np.ones(n)
@@ -167,7 +169,7 @@ def _lighting(
             np.sin(2 * np.pi * t / p + ph) - np.sin(ph)
             for p, ph in zip(periods, phases, strict=True)
         )
-        gain = 1 + lt.drift_amplitude * wave / 3.0
+        gain = 1 + lt.drift_amplitude * wave / 6.0  # each term lies in [-2, 2]
     lamp = np.ones(n)
     if lt.mode == "switch":
         ts = lt.switch_time_s if lt.switch_time_s is not None else 0.5 * t[-1]
