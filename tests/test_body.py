@@ -188,3 +188,16 @@ def test_bad_body_parameters(h: float, g: float) -> None:
 def test_bad_pose_shape(body: BodyModel) -> None:
     with pytest.raises(ValueError, match="31"):
         body.forward(np.zeros((4, 30)))
+
+
+def test_points_of_one_group_are_bit_identical(body: BodyModel) -> None:
+    poses = _random_poses(body, np.random.default_rng(7), 50, "general")
+    full = body.points(poses)
+    for group in (0, 1, 2):
+        part = body.points(poses, group=group)
+        caps = np.flatnonzero(body.capsule_groups == group)
+        ends = body.cap_ab[caps].ravel()
+        np.testing.assert_array_equal(part[:, ends], full[:, ends])
+        computed = ~np.isnan(part[0, :, 0])
+        np.testing.assert_array_equal(part[:, computed], full[:, computed])
+    assert np.isnan(body.points(poses, group=1)[:, body.cap_ab[body.base_capsules[0]]]).all()

@@ -398,14 +398,22 @@ def _fk_range(
     rot_sign: np.ndarray,
     pt_frame: np.ndarray,
     pt_local: np.ndarray,
+    frame_on: np.ndarray,
+    pt_on: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """Forward kinematics of poses lo..hi-1 (N, 31) into ``out`` (N, P, 3)."""
+    """Forward kinematics of poses lo..hi-1 (N, 31) into ``out`` (N, P, 3).
+
+    Only frames with ``frame_on`` and points with ``pt_on`` are computed (the other points are
+    NaN); a point's frame and its ancestors must be on.
+    """
     nf = parent.shape[0]
     rots = np.empty((nf, 3, 3))
     origins = np.empty((nf, 3))
     for n in range(lo, hi):
         for f in range(nf):
+            if not frame_on[f]:
+                continue
             p = parent[f]
             if p < 0:
                 for i in range(3):
@@ -427,6 +435,10 @@ def _fk_range(
                 if ax >= 0:
                     _rot_apply(rots, f, ax, rot_sign[f, k] * poses[n, rot_dof[f, k]])
         for q in range(pt_frame.shape[0]):
+            if not pt_on[q]:
+                for i in range(3):
+                    out[n, q, i] = np.nan
+                continue
             f = pt_frame[q]
             for i in range(3):
                 out[n, q, i] = (
@@ -447,6 +459,8 @@ def _fk_batch(
     rot_sign: np.ndarray,
     pt_frame: np.ndarray,
     pt_local: np.ndarray,
+    frame_on: np.ndarray,
+    pt_on: np.ndarray,
     nchunks: int,
 ) -> np.ndarray:
     """Forward kinematics of poses (N, 31) -> model points (N, P, 3), parallel over poses.
@@ -469,6 +483,8 @@ def _fk_batch(
             rot_sign,
             pt_frame,
             pt_local,
+            frame_on,
+            pt_on,
             out,
         )
     return out
@@ -562,6 +578,21 @@ class BodyModel:
         self.capsule_groups = np.zeros(N_CAPSULES, dtype=np.int64)
         self.capsule_groups[self.left_leg_capsules] = 1
         self.capsule_groups[self.right_leg_capsules] = 2
+        # frame and point masks of points(group=...): groups 0, 1, 2, and -1 = everything
+        self._masks: dict[int, tuple[np.ndarray, np.ndarray]] = {
+            -1: (np.ones(nf, dtype=np.bool_), np.ones(self._pt_frame.size, dtype=np.bool_))
+        }
+        for g in (0, 1, 2):
+            caps = np.flatnonzero(self.capsule_groups == g)
+            frames = set(self._pt_frame[self.cap_ab[caps].ravel()].tolist())
+            for f in list(frames):
+                while self._parent[f] >= 0:
+                    f = int(self._parent[f])
+                    frames.add(f)
+            frame_on = np.zeros(nf, dtype=np.bool_)
+            frame_on[sorted(frames)] = True
+            pt_on = frame_on[self._pt_frame].copy()
+            self._masks[g] = (frame_on, pt_on)
 
         self.root_height = (HIP_HEIGHT + SACRUM_ABOVE_HIP) * H
         self.segment_lengths: dict[str, float] = {
@@ -595,13 +626,17 @@ class BodyModel:
             raise ValueError(f"poses must have shape (N, {N_DOF}), got {np.shape(poses)}")
         return np.ascontiguousarray(p)
 
-    def points(self, poses: np.ndarray) -> np.ndarray:
+    def points(self, poses: np.ndarray, group: int | None = None) -> np.ndarray:
         """All model points of a batch of poses.
 
         Parameters
         ----------
         poses : np.ndarray
             ``(N, 31)`` (or ``(31,)``) poses, tracker.dof order and units.
+        group : {None, 0, 1, 2}
+            Compute only the capsule ends of one capsule group (``capsule_groups``: 0 upper body
+            and pelvis, 1 left leg, 2 right leg) and the key points of the same frames; the
+            other points are NaN. The computed points are bit-identical to a full call.
 
         Returns
         -------
@@ -610,6 +645,7 @@ class BodyModel:
             every capsule (indices ``cap_a``, ``cap_b``).
         """
         p = self._check(poses)
+        frame_on, pt_on = self._masks[-1 if group is None else group]
         return _fk_batch(
             p,
             self._parent,
@@ -619,6 +655,8 @@ class BodyModel:
             self._rot_sign,
             self._pt_frame,
             self._pt_local,
+            frame_on,
+            pt_on,
             4 * nb.get_num_threads(),
         )
 

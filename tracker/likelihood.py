@@ -187,9 +187,9 @@ class SilhouetteLikelihood:
         pr = np.repeat(base[:, None, :], nb_, axis=1)
         pr[:, :, list(RIGHT_LEG)] = right
         b = self.body
-        pts_base = b.points(base)
-        pts_left = b.points(pl.reshape(-1, N_DOF))
-        pts_right = b.points(pr.reshape(-1, N_DOF))
+        pts_base = b.points(base, group=0)
+        pts_left = b.points(pl.reshape(-1, N_DOF), group=1)
+        pts_right = b.points(pr.reshape(-1, N_DOF), group=2)
         return raster.counts_factored_kernel(
             pts_base,
             pts_left,
