@@ -3,3 +3,8 @@
 Pure computation on :class:`gaitwatch.trajectory.Trajectory` arrays; no I/O beyond the readers
 of the two input formats.
 """
+
+from gait.analysis import GaitConfig, analyse
+from gait.result import GaitReport
+
+__all__ = ["GaitConfig", "GaitReport", "analyse"]

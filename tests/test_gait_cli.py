@@ -91,6 +91,9 @@ def test_missing_file_wrong_type_and_bad_fps(tmp_path: Path, joints_csv: Path, c
     assert "--fps" in capsys.readouterr().err
     assert main(["gait", str(joints_csv), "--json", str(joints_csv)]) == 2
     assert "overwrite" in capsys.readouterr().err
+    assert main(["gait", str(joints_csv), "--long-lie-s", "-5"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("gaitwatch: error: --long-lie-s:") and err.count("\n") == 1
 
 
 def test_pose_log_input(tmp_path: Path, walk: Trajectory, capsys) -> None:

@@ -16,6 +16,8 @@ import os
 import tempfile
 from pathlib import Path
 
+from pydantic import ValidationError
+
 from gait.analysis import GaitConfig, analyse
 from gait.filtering import GaitInputError
 from gait.result import GaitReport
@@ -178,6 +180,9 @@ def _write_json(rep: GaitReport, out: Path) -> None:
         raise
 
 
+_OPTIONS = {"long_lie_s": "--long-lie-s", "treadmill_speed_m_s": "--treadmill-speed"}
+
+
 def run(args: argparse.Namespace) -> int:
     if args.json is not None and args.json.exists() and args.json.resolve() == args.input.resolve():
         raise InputError(f"{args.json}: --json would overwrite the input it reads")
@@ -186,11 +191,11 @@ def run(args: argparse.Namespace) -> int:
         raise GaitInputError(f"{args.input}: fewer than two frames with a pose; nothing to analyse")
     try:
         cfg = GaitConfig(long_lie_s=args.long_lie_s, treadmill_speed_m_s=args.treadmill_speed)
-    except ValueError as err:
-        first = str(err).splitlines()
-        raise InputError(
-            f"invalid option: {' '.join(first[1:3]) if len(first) > 2 else err}"
-        ) from None
+    except ValidationError as err:
+        first = err.errors()[0]
+        field = str(first["loc"][0]) if first.get("loc") else ""
+        option = _OPTIONS.get(field, field)
+        raise InputError(f"{option}: {first['msg'].lower()}, not {first.get('input')}") from None
     rep = analyse(traj, cfg)
     print(format_report(rep))
     if args.json is not None:
