@@ -8,6 +8,8 @@ which case it upgrades first (after a backup copy of a SQLite file).
 from __future__ import annotations
 
 import logging
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 
@@ -25,6 +27,7 @@ from service.api.routes import (
     trends,
 )
 from service.config import Settings, load_settings
+from service.db.audit import AuditBuffer
 from service.db.migrate import require_current_schema, schema_status, upgrade
 from service.db.session import make_engine, make_sessionmaker
 
@@ -86,7 +89,16 @@ def create_app(settings: Settings | None = None, *, check_schema: bool = True) -
             raise
         log.info("database schema at %s", schema_status(engine).current)
 
+    sessions = make_sessionmaker(engine)
+    audit_buffer = AuditBuffer(sessions)
+
+    @asynccontextmanager
+    async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
+        yield
+        audit_buffer.close()  # write the queued read-audit entries
+
     app = FastAPI(
+        lifespan=lifespan,
         title="gaitwatch",
         version=__version__,
         description=DESCRIPTION,
@@ -94,7 +106,8 @@ def create_app(settings: Settings | None = None, *, check_schema: bool = True) -
     )
     app.state.settings = settings
     app.state.engine = engine
-    app.state.sessionmaker = make_sessionmaker(engine)
+    app.state.sessionmaker = sessions
+    app.state.audit = audit_buffer
     app.state.metrics = Registry()
     errors.install(app)
     for module in (system, residents, trends, measurements, recordings, alerts, cameras, apikeys):

@@ -19,10 +19,10 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from sqlalchemy import select
-from sqlalchemy.orm import Session, selectinload
+from sqlalchemy.orm import Session
 
 from gaitwatch.errors import InputError
-from service.db.models import ApiKey, Resident, Role, utcnow
+from service.db.models import ApiKey, Resident, Role, api_key_residents, utcnow
 
 KEY_RE = re.compile(r"^gw_([A-Za-z0-9]{8})_([A-Za-z0-9_-]{20,100})$")
 
@@ -71,19 +71,26 @@ def authenticate(session: Session, token: str) -> Principal | None:
     m = KEY_RE.match(token.strip())
     if m is None:
         return None
-    key = session.scalar(
-        select(ApiKey).options(selectinload(ApiKey.residents)).where(ApiKey.prefix == m.group(1))
-    )
-    if key is None or key.revoked_at is not None:
+    row = session.execute(
+        select(ApiKey.id, ApiKey.key_hash, ApiKey.name, ApiKey.role, ApiKey.revoked_at).where(
+            ApiKey.prefix == m.group(1)
+        )
+    ).first()
+    if row is None or row.revoked_at is not None:
         return None
-    if not hmac.compare_digest(key.key_hash, hash_key(token.strip())):
+    if not hmac.compare_digest(row.key_hash, hash_key(token.strip())):
         return None
-    return Principal(
-        key_id=key.id,
-        name=key.name,
-        role=Role(key.role),
-        resident_ids=frozenset(r.id for r in key.residents),
-    )
+    role = Role(row.role)
+    ids: frozenset[int] = frozenset()
+    if role is Role.caregiver:
+        ids = frozenset(
+            session.scalars(
+                select(api_key_residents.c.resident_id).where(
+                    api_key_residents.c.api_key_id == row.id
+                )
+            )
+        )
+    return Principal(key_id=row.id, name=row.name, role=role, resident_ids=ids)
 
 
 def create_api_key(

@@ -69,12 +69,12 @@ def rolling_baselines(
     valid = (starts >= 0) & (starts < windows.shape[0])
     if not valid.any():
         return out, n_out
-    w = windows[starts[valid]]
+    w = np.sort(windows[starts[valid]], axis=1)  # NaNs sort last
     n = np.sum(~np.isnan(w), axis=1)
-    med = np.full(w.shape[0], np.nan)
-    enough = n >= rule.min_days
-    if enough.any():
-        med[enough] = np.nanmedian(w[enough], axis=1)
+    lo = np.maximum((n - 1) // 2, 0)[:, None]
+    hi = np.maximum(n // 2, 0)[:, None]
+    med = 0.5 * (np.take_along_axis(w, lo, 1)[:, 0] + np.take_along_axis(w, hi, 1)[:, 0])
+    med[n < rule.min_days] = np.nan
     out[valid] = med
     n_out[valid] = n
     return out, n_out

@@ -67,17 +67,22 @@ def _rows(
     cols = [type_coerce(Aggregate.start, String), Aggregate.median]
     if stats:
         cols += [Aggregate.q1, Aggregate.q3, Aggregate.count]
-    rows = session.execute(
-        select(*cols)
-        .where(
-            Aggregate.resident_id == resident_id,
-            Aggregate.metric == metric,
-            Aggregate.period == period,
-            Aggregate.start >= lo,
-            Aggregate.start <= hi,
+    # Core execution on the session's connection: no ORM row processing for plain columns.
+    rows = (
+        session.connection()
+        .execute(
+            select(*cols)
+            .where(
+                Aggregate.resident_id == resident_id,
+                Aggregate.metric == metric,
+                Aggregate.period == period,
+                Aggregate.start >= lo,
+                Aggregate.start <= hi,
+            )
+            .order_by(Aggregate.start)
         )
-        .order_by(Aggregate.start)
-    ).all()
+        .all()
+    )
     if not rows:
         return np.empty(0, dtype=np.int64), np.empty((0, 4 if stats else 1))
     keys = _ordinals([r[0] for r in rows])

@@ -7,7 +7,7 @@ from typing import Annotated
 from fastapi import APIRouter, Query, Request
 from sqlalchemy import func, select
 
-from service.api.deps import MAX_ID, ItemId, PageDep, PrincipalDep, SessionDep
+from service.api.deps import MAX_ID, AuditDep, ItemId, PageDep, PrincipalDep, SessionDep
 from service.api.errors import ApiError, not_found, responses
 from service.api.schemas import AlertAction, AlertOut, AlertStateName, PageOut
 from service.api.security import Principal
@@ -24,6 +24,7 @@ def list_alerts(
     principal: PrincipalDep,
     page: PageDep,
     request: Request,
+    audit_log: AuditDep,
     state: Annotated[AlertStateName | None, Query(description="Only this state.")] = None,
     resident_id: Annotated[
         int | None, Query(ge=1, le=MAX_ID, description="Only this resident.")
@@ -46,14 +47,12 @@ def list_alerts(
     items = session.scalars(
         q.order_by(Alert.raised_at.desc(), Alert.id.desc()).limit(page.limit).offset(page.offset)
     ).all()
-    audit.record(
-        session,
+    audit_log.add(
         actor=principal.actor,
         action="list",
         target=str(request.url)[:300],
         resident_id=resident_id,
     )
-    session.commit()
     return {"items": items, "total": total, "limit": page.limit, "offset": page.offset}
 
 
@@ -65,17 +64,15 @@ def _visible_alert(session, principal: Principal, alert_id: int) -> Alert:  # ty
 
 
 @router.get("/{alert_id}", response_model=AlertOut, responses=responses(401, 404, 422))
-def get_alert(alert_id: ItemId, session: SessionDep, principal: PrincipalDep):
+def get_alert(alert_id: ItemId, session: SessionDep, principal: PrincipalDep, audit_log: AuditDep):
     """One alert."""
     a = _visible_alert(session, principal, alert_id)
-    audit.record(
-        session,
+    audit_log.add(
         actor=principal.actor,
         action="read",
         target=f"alert:{a.id}",
         resident_id=a.resident_id,
     )
-    session.commit()
     return a
 
 

@@ -13,7 +13,6 @@ from service.api.deps import PageDep, PrincipalDep, ResidentId, SessionDep, visi
 from service.api.errors import ApiError, responses
 from service.api.schemas import BoutOut, FallOut, PageOut, TransferOut
 from service.api.security import Principal
-from service.db import audit
 from service.db.models import Bout, Fall, Transfer
 
 router = APIRouter(tags=["measurements"])
@@ -44,14 +43,12 @@ def _page(
     total = session.scalar(select(func.count()).select_from(q.subquery()))
     col = model.started_at.asc() if order == "asc" else model.started_at.desc()
     items = session.scalars(q.order_by(col, model.id).limit(page.limit).offset(page.offset)).all()
-    audit.record(
-        session,
+    request.app.state.audit.add(
         actor=principal.actor,
         action="read",
         target=request.url.path,
         resident_id=resident_id,
     )
-    session.commit()
     return {"items": items, "total": total, "limit": page.limit, "offset": page.offset}
 
 

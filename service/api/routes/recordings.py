@@ -20,7 +20,6 @@ from service.api.deps import (
 )
 from service.api.errors import ApiError, not_found, responses
 from service.api.schemas import IngestIn, IngestOut, PageOut
-from service.db import audit
 from service.db.baselines import BaselineRule
 from service.db.ingest import IngestError, ingest
 from service.db.models import Recording, Resident
@@ -132,12 +131,10 @@ def list_recordings(
         }
         for r in recs
     ]
-    audit.record(
-        session,
+    request.app.state.audit.add(
         actor=principal.actor,
         action="read",
         target=request.url.path,
         resident_id=resident_id,
     )
-    session.commit()
     return {"items": items, "total": total, "limit": page.limit, "offset": page.offset}

@@ -8,6 +8,7 @@ from sqlalchemy.orm import selectinload
 
 from service.api.deps import (
     AdminDep,
+    AuditDep,
     PageDep,
     PrincipalDep,
     ResidentId,
@@ -42,8 +43,7 @@ def list_residents(session: SessionDep, principal: PrincipalDep, page: PageDep, 
         .limit(page.limit)
         .offset(page.offset)
     ).all()
-    audit.record(session, actor=principal.actor, action="list", target=request.url.path)
-    session.commit()
+    request.app.state.audit.add(actor=principal.actor, action="list", target=request.url.path)
     return {"items": items, "total": total, "limit": page.limit, "offset": page.offset}
 
 
@@ -71,17 +71,17 @@ def create_resident(body: ResidentCreate, session: SessionDep, principal: AdminD
 
 
 @router.get("/{resident_id}", response_model=ResidentOut, responses=responses(401, 404, 422))
-def get_resident(resident_id: ResidentId, session: SessionDep, principal: PrincipalDep):
+def get_resident(
+    resident_id: ResidentId, session: SessionDep, principal: PrincipalDep, audit_log: AuditDep
+):
     """One resident with the cameras of their home."""
     r = visible_resident(session, principal, resident_id)
-    audit.record(
-        session,
+    audit_log.add(
         actor=principal.actor,
         action="read",
         target=f"resident:{r.id}",
         resident_id=r.id,
     )
-    session.commit()
     return r
 
 
