@@ -202,3 +202,25 @@ def test_points_of_one_group_are_bit_identical(body: BodyModel) -> None:
         np.testing.assert_array_equal(part[:, computed], full[:, computed])
     head = body.capsule_names.index("head")
     assert np.isnan(body.points(poses, group=1)[:, body.cap_ab[head]]).all()
+
+
+def test_sincos_matches_libm() -> None:
+    import numba
+
+    from tracker.body import sincos
+
+    @numba.njit
+    def _many(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        s = np.empty_like(x)
+        c = np.empty_like(x)
+        for i in range(x.size):
+            s[i], c[i] = sincos(x[i])
+        return s, c
+
+    rng = np.random.default_rng(8)
+    x = np.concatenate([rng.uniform(-7, 7, 20000), [0.0, np.pi / 4, np.pi / 2, -np.pi, 2e5]])
+    s, c = _many(x)
+    np.testing.assert_allclose(s, np.sin(x), rtol=0, atol=3e-16)
+    np.testing.assert_allclose(c, np.cos(x), rtol=0, atol=3e-16)
+    s, c = _many(np.array([np.nan, np.inf]))
+    assert np.isnan(s).all() and np.isnan(c).all()
