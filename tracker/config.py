@@ -218,6 +218,24 @@ class InitConfig(_Model):
     max_candidates: Annotated[int, Field(ge=10, le=1_000_000)] = 20_000
 
 
+class HeadingCheckConfig(_Model):
+    """Walking-direction check of the heading (a silhouette looks alike from front and back).
+
+    When the body origin has moved faster than ``min_speed_m_s`` over the last ``frames`` frames
+    in a direction more than ``max_angle_deg`` away from the estimated heading, the initial
+    search is re-run with headings within ``span_deg`` of the walking direction at the current
+    position; its result replaces the track when it weighs at least ``accept_ratio`` times the
+    current estimate. People seldom walk backwards.
+    """
+
+    enabled: bool = True
+    frames: Annotated[int, Field(ge=2, le=100)] = 6
+    min_speed_m_s: Annotated[float, Field(ge=0, le=5)] = 0.35
+    max_angle_deg: Annotated[float, Field(ge=0, le=180)] = 110.0
+    span_deg: Annotated[float, Field(ge=0, le=180)] = 40.0
+    accept_ratio: Annotated[float, Field(ge=0, le=2)] = 0.85
+
+
 class TrackerConfig(_Model):
     """Everything the tracking pipeline needs besides cameras, footage and a seed."""
 
@@ -235,6 +253,7 @@ class TrackerConfig(_Model):
     ] = None
     origin: OriginSearchConfig = Field(default_factory=OriginSearchConfig)
     init: InitConfig = Field(default_factory=InitConfig)
+    heading_check: HeadingCheckConfig = Field(default_factory=HeadingCheckConfig)
     limits_profile: Annotated[str, Field(description="tracker.dof limit profile")] = "walking"
     limits_overrides_deg: dict[str, tuple[float, float]] = {}
     reference_dt_s: Annotated[float, Field(gt=0, le=1)] = 0.05

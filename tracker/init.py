@@ -164,6 +164,7 @@ def initial_search(
     limits: tuple[np.ndarray, np.ndarray],
     dt: float = 0.05,
     floor_xy: np.ndarray | None = None,
+    headings: np.ndarray | None = None,
 ) -> InitResult | None:
     """Weigh the grid of plausible configurations; ``None`` when no floor point is found.
 
@@ -180,6 +181,8 @@ def initial_search(
         Frame interval (s), for the refinement's ranges.
     floor_xy : ndarray (2,), optional
         Use this floor point instead of the silhouettes'.
+    headings : ndarray, optional
+        Headings (radians) to try instead of ``config.init.headings`` values over the circle.
     """
     ic = config.init
     if floor_xy is None:
@@ -194,7 +197,10 @@ def initial_search(
     gx, gy = np.meshgrid(offs, offs, indexing="ij")
     keep = gx**2 + gy**2 <= r**2 + 1e-9
     xy = np.stack([gx[keep], gy[keep]], axis=1) + floor_xy
-    yaws = -np.pi + (np.arange(ic.headings) + 0.5) * (2 * np.pi / ic.headings)
+    if headings is None:
+        yaws = -np.pi + (np.arange(ic.headings) + 0.5) * (2 * np.pi / ic.headings)
+    else:
+        yaws = np.asarray(headings, dtype=np.float64).ravel()
     # (configs, positions, headings) grid, thinned deterministically to max_candidates.
     nc, npos, nh = configs.shape[0], xy.shape[0], yaws.size
     total = nc * npos * nh

@@ -32,7 +32,7 @@ import numpy as np
 
 from gaitwatch.conventions import SACRUM
 from tracker.config import TrackerConfig
-from tracker.dof import DOF, N_DOF
+from tracker.dof import DOF, N_DOF, wrap_angle
 from tracker.filters import Filter, make_filter
 from tracker.init import initial_search
 from tracker.origin import search_origin
@@ -176,6 +176,7 @@ class Tracker:
         self.velocity_xy = np.zeros(2)
         self.low_count = 0
         self.need_init = True
+        self._path: list[tuple[float, float, float]] = []  # (time, x, y) of recent estimates
 
     # -- public -----------------------------------------------------------------------------
     @property
@@ -231,6 +232,12 @@ class Tracker:
                     self.low_count = 0
             else:
                 self.low_count = 0
+            if status == "tracked":
+                flipped = self._check_heading(pose, weight, masks, dt, time_s)
+                if flipped is not None:
+                    pose, weight, note = flipped
+                    status = "reinitialised"
+                    notes.append(note)
         joints = np.asarray(self.body.forward(pose[None]))[0]
         self._remember(pose, time_s, dt, continuous=status == "tracked")
         for n in notes:
@@ -290,7 +297,59 @@ class Tracker:
         est = self.filter.step(self._lik, dt)
         return est.pose, est.weight
 
+    def _check_heading(
+        self, pose: np.ndarray, weight: float, masks: list[np.ndarray], dt: float, time_s: float
+    ) -> tuple[np.ndarray, float, str] | None:
+        """Re-initialise facing the walking direction when the heading points backwards."""
+        hc = self.config.heading_check
+        if not hc.enabled:
+            return None
+        path = [*self._path, (float(time_s), float(pose[0]), float(pose[1]))][-hc.frames :]
+        if len(path) < hc.frames:
+            return None
+        (t0, x0, y0), (t1, x1, y1) = path[0], path[-1]
+        if t1 <= t0:
+            return None
+        d = np.array([x1 - x0, y1 - y0])
+        if np.hypot(*d) / (t1 - t0) < hc.min_speed_m_s:
+            return None
+        travel = float(np.arctan2(d[1], d[0]))
+        off = float(np.degrees(abs(wrap_angle(pose[DOF["root_yaw"]] - travel))))
+        if off <= hc.max_angle_deg:
+            return None
+        span = np.radians(hc.span_deg)
+        res = initial_search(
+            self._lik,
+            self.body,
+            self.lik_cameras,
+            masks,
+            self.config,
+            limits=self.limits,
+            dt=dt,
+            floor_xy=pose[:2].copy(),
+            headings=travel + np.linspace(-span, span, 9),
+        )
+        self._path = []
+        if res is None or res.best_weight < hc.accept_ratio * weight:
+            return None
+        self.filter.initialise(res.poses, res.weights)
+        est = self.filter.step(self._lik, dt)
+        new, w = (
+            (est.pose, est.weight) if est.weight >= res.best_weight else (res.best, res.best_weight)
+        )
+        return (
+            new.copy(),
+            float(w),
+            f"heading {np.degrees(pose[DOF['root_yaw']]):.0f} deg was {off:.0f} deg off the "
+            f"walking direction: re-initialised facing {np.degrees(travel):.0f} deg "
+            f"(weight {w:.3f}, was {weight:.3f})",
+        )
+
     def _remember(self, pose: np.ndarray, time_s: float, dt: float, *, continuous: bool) -> None:
+        if continuous:
+            self._path = [*self._path, (float(time_s), float(pose[0]), float(pose[1]))][-64:]
+        else:
+            self._path = [(float(time_s), float(pose[0]), float(pose[1]))]
         if not continuous or self.prev_pose is None:
             self.velocity_xy = np.zeros(2)
         else:
@@ -308,6 +367,7 @@ class Tracker:
         self.prev_time = float(time_s)
         self.velocity_xy = np.zeros(2)
         self.low_count = 0
+        self._path = []
         log.debug("frame %d: no pose (%s)", frame_index, reason)
         return FrameResult(
             frame_index=int(frame_index),
