@@ -309,6 +309,26 @@ def test_body_shapes_change_the_silhouette(short_walk: Trajectory) -> None:
     assert m[0].sum() > 1.05 * area["default"]
 
 
+def test_cloth_pattern_shows_on_the_shirt(short_walk: Trajectory) -> None:
+    spread = {}
+    for pattern in ("plain", "stripes"):
+        ims, masks, sc = _masks_and_images(
+            short_walk,
+            max_frames=1,
+            seed=1,
+            views=["frontal"],
+            clothing={"pattern": pattern, "shirt": (200, 60, 60)},
+            noise={"sigma_dn": 0, "blur_px": 0},
+        )
+        kp = sc.truth.positions[0]
+        # the chest, seen from the front: between the neck and the sacrum
+        u, v = np.rint(sc.cameras[0].project(0.4 * kp[NECK] + 0.6 * kp[2])).astype(int)
+        assert masks[0][v - 4 : v + 5, u - 4 : u + 5].all()
+        patch = ims[0][v - 4 : v + 5, u - 4 : u + 5].astype(float).mean(axis=2)
+        spread[pattern] = patch.std()
+    assert spread["stripes"] > 3 * spread["plain"] + 3
+
+
 def test_occluder_hides_the_legs(short_walk: Trajectory) -> None:
     def foot_visibility(occluder: str) -> tuple[float, float]:
         _, masks, sc = _masks_and_images(

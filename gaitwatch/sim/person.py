@@ -55,12 +55,19 @@ class Mesh:
     normals : ndarray (V, 3), unit outward vertex normals
     albedo : ndarray (V, 3), RGB reflectance in [0, 1]
     triangles : ndarray (F, 3), int64 vertex indices
+    texcoords : ndarray (V, 3) or None
+        Per vertex: metres along its part's axis, and ``r cos(theta)``, ``r sin(theta)`` around
+        it (r the mean half-width of the ring), for cloth patterns.
+    patterned : ndarray (V,) or None
+        1.0 where the cloth pattern applies (the shirt or coat), else 0.0.
     """
 
     vertices: np.ndarray
     normals: np.ndarray
     albedo: np.ndarray
     triangles: np.ndarray
+    texcoords: np.ndarray | None = None
+    patterned: np.ndarray | None = None
 
 
 @dataclass
@@ -165,7 +172,7 @@ class BodyModel:
         trouser_extra = {"fitted": 0.004, "loose": 0.012, "skirt": 0.0, "coat": 0.006}[style] * S
         lower_col = col["trousers"]
         shank_col = col["skin"] if style == "skirt" else col["trousers"]
-        sleeve_col = col["trousers"] if style == "coat" else col["shirt"]
+        sleeve_col = self._coat_colour if style == "coat" else col["shirt"]
         if style == "coat":
             lower_col = col["trousers"]
         parts: list[_Tube] = []
@@ -213,7 +220,7 @@ class BodyModel:
         s_arr = np.asarray(ts)
         trunk_col = np.where((s_arr < 0.3)[:, None], lower_col, col["shirt"])
         if style == "coat":
-            trunk_col = np.broadcast_to(col["trousers"] * 0.6 + 0.4 * col["shirt"], (n_r, 3))
+            trunk_col = np.broadcast_to(self._coat_colour, (n_r, 3))
         u_ref = _unit((1 - s_arr)[:, None] * lp + s_arr[:, None] * ls)
         parts.append(tube(mid_hip, kp[NECK], u_ref, ts, tex, ta, tb, trunk_col, v_off=voff))
 
@@ -358,7 +365,7 @@ class BodyModel:
             else:
                 top = mid_hip + 0.45 * (kp[NECK] - mid_hip)
                 bottom = mid_hip + 0.5 * (knee_mid - mid_hip)
-                colour = col["trousers"] * 0.6 + 0.4 * col["shirt"]
+                colour = self._coat_colour
             sep = kp[L_KNEE] - kp[R_KNEE]
             a_top = 0.088 * S * g + shirt_extra + 0.004 * S
             b_top = 0.066 * S * g * belly + shirt_extra + 0.004 * S
@@ -379,19 +386,61 @@ class BodyModel:
         if not np.isfinite(kp).all():
             raise ValueError("BodyModel.mesh needs all 19 key points finite")
         parts = self._parts(kp)
-        verts, cols, tris = [], [], []
+        verts, cols, tris, tex = [], [], [], []
         offset = 0
+        n = self.n_around
         for p in parts:
             v = _tube_vertices(p, self._cos, self._sin)
             r = v.shape[0]
             c = p.colour if p.colour.ndim == 3 else np.broadcast_to(p.colour[:, None], v.shape)
             verts.append(v.reshape(-1, 3))
             cols.append(np.asarray(c).reshape(-1, 3))
-            tris.append(_grid_triangles(r, self.n_around) + offset)
-            offset += r * self.n_around
+            tris.append(_grid_triangles(r, n) + offset)
+            axial = p.s * float(np.linalg.norm(p.p1 - p.p0)) + p.extra
+            rad = 0.5 * (p.a + p.b)
+            tex.append(
+                np.stack(
+                    [
+                        np.repeat(axial, n),
+                        (rad[:, None] * self._cos[None]).ravel(),
+                        (rad[:, None] * self._sin[None]).ravel(),
+                    ],
+                    1,
+                )
+            )
+            offset += r * n
         vertices = np.concatenate(verts)
         triangles = np.concatenate(tris)
-        return Mesh(vertices, vertex_normals(vertices, triangles), np.concatenate(cols), triangles)
+        albedo = np.concatenate(cols)
+        patterned = np.all(np.abs(albedo - self.colours["shirt"]) < 1e-9, axis=1)
+        if self.body.style == "coat":
+            patterned |= np.all(np.abs(albedo - self._coat_colour) < 1e-9, axis=1)
+        return Mesh(
+            vertices,
+            vertex_normals(vertices, triangles),
+            albedo,
+            triangles,
+            np.concatenate(tex),
+            patterned.astype(np.float64),
+        )
+
+    @property
+    def _coat_colour(self) -> np.ndarray:
+        return self.colours["trousers"] * 0.6 + 0.4 * self.colours["shirt"]
+
+    def pattern(self, texcoords: np.ndarray) -> np.ndarray:
+        """Reflectance factor (N,) of the shirt's pattern at interpolated texcoords (N, 3)."""
+        kind = self.body.pattern
+        f = np.ones(len(texcoords))
+        if kind == "plain":
+            return f
+        period = self.body.pattern_period_m
+        band = np.floor(texcoords[:, 0] / (0.5 * period)).astype(np.int64) % 2
+        if kind == "checks":
+            theta = np.arctan2(texcoords[:, 2], texcoords[:, 1])
+            arc = theta * np.hypot(texcoords[:, 1], texcoords[:, 2])
+            band ^= np.floor(arc / (0.5 * period)).astype(np.int64) % 2
+        return np.where(band == 1, 0.55, 1.0)
 
 
 def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -13,6 +13,7 @@ apart so that the lamp can be switched off and its shadow drawn.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numba
@@ -154,14 +155,30 @@ def draw_person(
     zbuf: np.ndarray,
     img: np.ndarray,
     labels: np.ndarray,
+    pattern: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> None:
-    """Shade (Lambert, ambient + lamp) and draw the person's mesh into RGB buffers, in place."""
+    """Shade (Lambert, ambient + lamp) and draw the person's mesh into RGB buffers, in place.
+
+    With ``pattern`` (texcoords (N, 3) -> reflectance factor (N,)) and the mesh's texcoords,
+    the cloth pattern is applied per pixel where ``mesh.patterned``.
+    """
     shade = lights.ambient_term(mesh.normals) + lamp_on * lights.lamp_term(
         mesh.vertices, mesh.normals
     )
     colour = mesh.albedo * shade[:, None]
     xy, z = project_mesh(camera, mesh.vertices, mesh.triangles)
-    rasterize(xy, z, colour[mesh.triangles], LABEL_PERSON, zbuf, img, labels)
+    if pattern is None or mesh.texcoords is None or mesh.patterned is None:
+        rasterize(xy, z, colour[mesh.triangles], LABEL_PERSON, zbuf, img, labels)
+        return
+    attrs = np.concatenate([colour, mesh.texcoords, mesh.patterned[:, None]], axis=1)
+    buf = np.zeros(img.shape[:2] + (attrs.shape[1],), dtype=np.float32)
+    lab = np.zeros_like(labels)
+    rasterize(xy, z, attrs[mesh.triangles], LABEL_PERSON, zbuf, buf, lab)
+    drawn = lab == LABEL_PERSON
+    px = buf[drawn]
+    factor = np.where(px[:, 6] > 0.5, pattern(px[:, 3:6].astype(np.float64)), 1.0)
+    img[drawn] = px[:, :3] * factor[:, None].astype(np.float32)
+    labels[drawn] = LABEL_PERSON
 
 
 def shadow_coverage(

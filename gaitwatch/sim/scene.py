@@ -60,6 +60,10 @@ class Clothing(_Model):
         ),
     ] = "fitted"
     long_sleeves: bool = True
+    pattern: Annotated[
+        Literal["plain", "stripes", "checks", "random"],
+        Field(description="Pattern of the shirt (or coat): plain, stripes, checks, random"),
+    ] = "random"
     shirt: RGB | None = None
     trousers: RGB | None = None
     skin: RGB | None = None
@@ -143,6 +147,8 @@ class ResolvedBody(_Model):
     belly: float
     style: ClothingStyle
     long_sleeves: bool
+    pattern: Literal["plain", "stripes", "checks"]
+    pattern_period_m: float
     shirt: RGB
     trousers: RGB
     skin: RGB
@@ -173,7 +179,12 @@ def resolve_body(
         choice = palette[int(rng.integers(len(palette)))]  # always draw: stable streams
         return tuple(int(c) for c in value) if value is not None else choice
 
+    patterns = ("plain", "plain", "stripes", "checks")
+    pattern = patterns[int(rng.integers(len(patterns)))]
+    period = float(rng.uniform(0.03, 0.09))
     return ResolvedBody(
+        pattern=pattern if clothing.pattern == "random" else clothing.pattern,
+        pattern_period_m=period,
         stature_m=float(stature),
         girth=float(shape.girth if shape.girth is not None else p_girth),
         belly=float(shape.belly if shape.belly is not None else p_belly),

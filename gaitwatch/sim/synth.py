@@ -339,7 +339,7 @@ def compose(
     labels = bd.labels.copy()
     if mesh is not None:
         zbuf = bd.depth.copy()
-        draw_person(cam, mesh, scene.room.lights, on, zbuf, img, labels)
+        draw_person(cam, mesh, scene.room.lights, on, zbuf, img, labels, scene.model.pattern)
     return img, labels == LABEL_PERSON
 
 

@@ -46,6 +46,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--shape", choices=("default", "tall", "short", "heavy", "slim"), default="default"
     )
     p.add_argument("--clothing", choices=("fitted", "loose", "skirt", "coat"), default="fitted")
+    p.add_argument(
+        "--pattern", choices=("random", "plain", "stripes", "checks"), default="random",
+        help="shirt pattern",
+    )  # fmt: skip
     p.add_argument("--occluder", choices=("none", "table", "sofa"), default="none")
     p.add_argument("--lighting", choices=("steady", "drift", "switch"), default="drift")
     p.add_argument("--noise", type=float, default=2.0, help="sensor noise sigma (8-bit units)")
@@ -103,7 +107,7 @@ def _config(args: argparse.Namespace):
             seed=args.seed,
             max_frames=args.max_frames,
             body={"preset": args.shape, "height_m": args.height},
-            clothing={"style": args.clothing},
+            clothing={"style": args.clothing, "pattern": args.pattern},
             lighting={"mode": args.lighting},
             noise={"sigma_dn": args.noise, "jpeg_quality": args.jpeg},
             room={"occluder": args.occluder},
