@@ -55,7 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--noise", type=float, default=2.0, help="sensor noise sigma (8-bit units)")
     p.add_argument("--jpeg", type=int, metavar="Q", help="JPEG-compress every frame at quality Q")
     p.add_argument("--fps", type=float, default=25.0)
-    p.add_argument("--size", default="640x480", help="image size WxH")
+    p.add_argument("--size", help="image size WxH (default: the first --camera's, else 640x480)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--max-frames", type=int)
     p.add_argument("--masks", action="store_true", help="also write silhouette masks")
@@ -86,7 +86,7 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
-def _config(args: argparse.Namespace):
+def _config(args: argparse.Namespace, default_size: tuple[int, int] = (640, 480)):
     from pydantic import ValidationError
 
     from gaitwatch.sim.scene import SceneConfig
@@ -102,7 +102,7 @@ def _config(args: argparse.Namespace):
     try:
         return SceneConfig(
             views=views,
-            image_size=_size(args.size),
+            image_size=_size(args.size) if args.size else default_size,
             fps=args.fps,
             seed=args.seed,
             max_frames=args.max_frames,
@@ -181,8 +181,8 @@ def run(args: argparse.Namespace) -> int:
     from gaitwatch.sim.motion import load_motion
     from tracker.camera import load_cameras
 
-    cfg = _config(args)
     cameras = load_cameras(args.camera) if args.camera else []
+    cfg = _config(args, (cameras[0].width, cameras[0].height) if cameras else (640, 480))
     if args.advise:
         from gaitwatch.sim.advise import advice_overlay, advise, format_advice
 
