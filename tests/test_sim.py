@@ -107,6 +107,22 @@ def test_missing_upper_body_is_filled_and_missing_legs_refused() -> None:
         complete_for_render(Trajectory(positions=pos, times=tr.times, source="no knees"))
 
 
+def test_place_on_path_and_scale_to_stature() -> None:
+    from gaitwatch.sim.motion import place_on_path, scale_to_stature
+
+    tr = procedural_walk(distance_m=2.0, fps=50, height_m=1.75)
+    moved = place_on_path(tr, (2.0, 3.0), math.pi / 2)
+    s = moved.positions[:, 2]
+    np.testing.assert_allclose(s[0, :2], [2.0, 3.0], atol=1e-9)
+    travel = s[-1, :2] - s[0, :2]
+    assert travel[1] == pytest.approx(2.0, abs=0.05) and abs(travel[0]) < 0.05
+    # rigid motion: bone lengths and heights unchanged
+    np.testing.assert_allclose(moved.positions[..., 2], tr.positions[..., 2], atol=1e-9)
+    tall = scale_to_stature(tr, 1.95)
+    assert estimate_stature(tall.positions) == pytest.approx(1.95, rel=1e-6)
+    assert tall.positions[:, FEET, 2].min() > -1e-9
+
+
 def test_resample_interpolates_linearly() -> None:
     t = np.arange(0, 1.0001, 0.01) + 5.0
     pos = np.zeros((len(t), 19, 3))
