@@ -193,7 +193,14 @@ def run(args: argparse.Namespace) -> int:
         for cam in cameras:
             acfg = cfg.model_copy(update={"fps": min(cfg.fps, 15.0)})
             fn = tracker_callable(args.seed) if args.track else None
-            adv = advise(cam, fn, motion=motion, config=acfg, min_person_px=args.min_px)
+            adv = advise(
+                cam,
+                fn,
+                motion=motion,
+                config=acfg,
+                min_person_px=args.min_px,
+                max_path_m=3.0 if args.track else 6.0,  # the tracker is slow
+            )
             print(format_advice(adv))
             reports.append(adv)
         if args.out:
