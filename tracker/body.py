@@ -373,7 +373,7 @@ _PIO2_HI = 1.57079632673412561417e00  # first 33 bits of pi/2
 _PIO2_LO = 6.07710050650619224932e-11  # pi/2 - _PIO2_HI
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def sincos(x: float) -> tuple[float, float]:
     """(sin x, cos x) to about 1 ulp; falls back to libm for |x| > 1e5 and non-finite x."""
     if not abs(x) <= 1e5:
@@ -393,7 +393,7 @@ def sincos(x: float) -> tuple[float, float]:
     return -cr, sr
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _rot_apply(rots: np.ndarray, f: int, axis: int, angle: float) -> None:
     """rots[f] <- rots[f] @ Rot_axis(angle), in place."""
     s, c = sincos(angle)

@@ -70,7 +70,7 @@ def pack_camera(R: np.ndarray, t: np.ndarray, K: np.ndarray, dist: np.ndarray) -
     return row
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _distort(x: float, y: float, cams: np.ndarray, k: int) -> tuple[float, float]:
     """OpenCV distortion of normalised coordinates with the coefficients of camera k."""
     k1 = cams[k, 17]
@@ -91,7 +91,7 @@ def _distort(x: float, y: float, cams: np.ndarray, k: int) -> tuple[float, float
     return xd, yd
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def project_point(
     px: float, py: float, pz: float, cams: np.ndarray, k: int
 ) -> tuple[float, float, float, bool]:
@@ -122,7 +122,7 @@ def project_point(
     return u, v, scale, True
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _emit_span(mask: np.ndarray, slot: int, y: int, xl: float, xr: float, wmax: float) -> None:
     """Set the pixels of row y of mask[slot] whose centres lie in [xl, xr] (wmax = W - 1)."""
     if xl > xr or xr < 0.0 or xl > wmax:
@@ -144,7 +144,7 @@ def _emit_span(mask: np.ndarray, slot: int, y: int, xl: float, xr: float, wmax: 
         mask[slot, y, wb] |= hi
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def raster_capsule(
     ax: float,
     ay: float,
@@ -290,7 +290,7 @@ def raster_capsule(
         )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _rows_ends(
     mask: np.ndarray,
     slot: int,
@@ -338,7 +338,7 @@ def _rows_ends(
         _emit_span(mask, slot, y, xl, xr, wmax)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _reset_bbox(bbox: np.ndarray, slot: int) -> None:
     bbox[slot, 0] = _BIG
     bbox[slot, 1] = -1
@@ -381,7 +381,7 @@ def render_capsules(
         )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _count_clear(
     mask: np.ndarray, slot: int, sil: np.ndarray, k: int, bbox: np.ndarray
 ) -> tuple[int, int]:
