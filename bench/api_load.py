@@ -97,6 +97,20 @@ def start_server(url: str, port: int, workers: int) -> subprocess.Popen[bytes]:
     raise SystemExit("server did not become healthy within 60 s")
 
 
+def server_cpu_s(pid: int) -> float:
+    """CPU seconds (user + system) used so far by process ``pid`` and its children (Linux)."""
+    tick = os.sysconf("SC_CLK_TCK")
+    total = 0.0
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(stat.parent.name) == pid or int(fields[1]) == pid:
+            total += (int(fields[11]) + int(fields[12])) / tick
+    return total
+
+
 def make_paths(rng: np.random.Generator, ids: list[int], n: int, today: dt.date) -> list[str]:
     paths = []
     for _ in range(n):
@@ -189,6 +203,7 @@ def main(argv: list[str] | None = None) -> int:
         args.db = Path(tmp.name) / "bench.sqlite3"
     token = build_db(args.db, args.residents, args.days, args.bouts_per_day, args.seed)
     url = f"sqlite:///{args.db}"
+    load_before = " ".join(f"{x:.1f}" for x in os.getloadavg())
     port = free_port()
     proc = start_server(url, port, args.workers)
     try:
@@ -198,11 +213,14 @@ def main(argv: list[str] | None = None) -> int:
         base = f"http://127.0.0.1:{port}"
         asyncio.run(drive(base, token, make_paths(rng, ids, args.warmup, today), 10, 60, 0.0, rng))
         results = {}
+        cpu: dict[str, float] = {}
         for name, think in (("caregivers", args.think), ("saturation", 0.0)):
             paths = make_paths(rng, ids, args.requests, today)
+            cpu0 = server_cpu_s(proc.pid)
             results[name] = asyncio.run(
                 drive(base, token, paths, args.clients, args.seconds, think, rng)
             )
+            cpu[name] = server_cpu_s(proc.pid) - cpu0
     finally:
         proc.terminate()
         try:
@@ -211,6 +229,7 @@ def main(argv: list[str] | None = None) -> int:
             proc.kill()
         if tmp is not None:
             tmp.cleanup()
+    print(f"load average before: {load_before}")
     print(
         f"trends endpoint, {args.residents} residents x {args.days} days, SQLite, "
         f"{args.clients} concurrent clients, {args.workers} server worker(s), "
@@ -224,6 +243,7 @@ def main(argv: list[str] | None = None) -> int:
             else "closed loop, no think time"
         )
         print(f"[{name}] {how}")
+        print(f"  server CPU per request: {1000 * cpu[name] / max(len(lat), 1):.1f} ms")
         print(f"  requests: {len(lat)} in {wall:.1f} s ({len(lat) / wall:.0f}/s), errors: {errors}")
         print(
             f"  latency ms: p50 {np.percentile(ms, 50):.1f}  p90 {np.percentile(ms, 90):.1f}  "

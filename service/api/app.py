@@ -91,11 +91,16 @@ def create_app(settings: Settings | None = None, *, check_schema: bool = True) -
 
     sessions = make_sessionmaker(engine)
     audit_buffer = AuditBuffer(sessions)
+    # API keys are checked on the event loop (no thread hop) through their own small pool:
+    # each check takes a connection and returns it at once, so it never waits for the main
+    # pool, whose connections are released on the event loop.
+    auth_engine = make_engine(url, pool_size=2, busy_timeout_ms=settings.sqlite_busy_timeout_ms)
 
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
         yield
         audit_buffer.close()  # write the queued read-audit entries
+        auth_engine.dispose()
 
     app = FastAPI(
         lifespan=lifespan,
@@ -107,6 +112,7 @@ def create_app(settings: Settings | None = None, *, check_schema: bool = True) -
     app.state.settings = settings
     app.state.engine = engine
     app.state.sessionmaker = sessions
+    app.state.auth_sessionmaker = make_sessionmaker(auth_engine)
     app.state.audit = audit_buffer
     app.state.metrics = Registry()
     errors.install(app)

@@ -55,7 +55,7 @@ SessionDep = Annotated[Session, Depends(get_session)]
 
 
 async def get_principal(
-    session: SessionDep,
+    request: Request,
     bearer: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
     header: Annotated[str | None, Depends(_header)],
 ) -> Principal:
@@ -67,7 +67,10 @@ async def get_principal(
             "an API key is required (Authorization: Bearer <key> or X-API-Key)",
             headers={"WWW-Authenticate": "Bearer"},
         )
-    principal = authenticate(session, token) if len(token) <= 200 else None
+    principal = None
+    if len(token) <= 200:
+        with request.app.state.auth_sessionmaker() as session:
+            principal = authenticate(session, token)
     if principal is None:
         raise ApiError(401, "invalid or revoked API key", headers={"WWW-Authenticate": "Bearer"})
     return principal

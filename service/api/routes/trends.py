@@ -67,18 +67,21 @@ async def get_trend(
 
 
 def _trend(session, principal, audit_log, resident_id, metric, from_, to, bucket, rule) -> TrendOut:  # type: ignore[no-untyped-def]
-    check_resident(session, principal, resident_id)
-    points = trend(session, resident_id, metric, from_, to, bucket, rule)
-    base = session.execute(
-        select(
-            Baseline.value,
-            Baseline.q1,
-            Baseline.q3,
-            Baseline.n_days,
-            Baseline.window_start,
-            Baseline.window_end,
-        ).where(Baseline.resident_id == resident_id, Baseline.metric == metric)
-    ).first()
+    try:
+        check_resident(session, principal, resident_id)
+        points = trend(session, resident_id, metric, from_, to, bucket, rule)
+        base = session.execute(
+            select(
+                Baseline.value,
+                Baseline.q1,
+                Baseline.q3,
+                Baseline.n_days,
+                Baseline.window_start,
+                Baseline.window_end,
+            ).where(Baseline.resident_id == resident_id, Baseline.metric == metric)
+        ).first()
+    finally:
+        session.close()  # give the connection back in this thread, not later on the loop
     audit_log.add(
         actor=principal.actor,
         action="read",
