@@ -225,3 +225,31 @@ def test_rolling_baselines_match_a_direct_computation() -> None:
             assert g == pytest.approx(np.median(med[sel]))
         else:
             assert math.isnan(g)
+
+
+def test_ingest_accepts_a_real_gait_report(sessions, rid) -> None:
+    """The GaitReport of gait.analysis (task E) goes in as it is, object or JSON dict."""
+    analysis = pytest.importorskip("gait.analysis")
+    synthetic = pytest.importorskip("gait.synthetic")
+    traj = synthetic.synthetic_walk(speed_m_s=1.1, n_strides=8, fps=50.0)
+    report = analysis.analyse(traj)
+    with sessions() as s:
+        out = ingest(s, recording(rid, 1, duration_s=60), report)
+        assert out.created and out.bouts == len(report.bouts)
+    with sessions() as s:
+        out2 = ingest(s, recording(rid, 2, duration_s=60), report.to_json_dict())
+        assert out2.created
+        speeds = s.scalars(select(Bout.walking_speed_m_s)).all()
+    assert len(report.bouts) >= 1
+    expected = sorted([b.walking_speed_m_s for b in report.bouts] * 2)
+    assert sorted(speeds) == pytest.approx(expected)
+    assert expected[0] == pytest.approx(1.1, rel=0.1)
+
+
+def test_tug_list_of_a_gait_report_becomes_tug_transfers(sessions, rid) -> None:
+    res = result(7)
+    res["tug"] = [{"start_s": 10.0, "end_s": 24.5, "duration_s": 14.5, "includes_turn": True}]
+    with sessions() as s:
+        ingest(s, recording(rid), res)
+        t = s.scalar(select(Transfer))
+    assert (t.kind, t.tug_time_s, t.extra) == ("tug", 14.5, {"includes_turn": True})

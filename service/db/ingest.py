@@ -232,19 +232,57 @@ def _unwrap_list(v: Any) -> Any:
     return v
 
 
+class TugIn(_Extras):
+    """A timed-up-and-go-like sequence (``gait.result.TUG``): stored as a ``tug`` transfer."""
+
+    start_s: float = Field(..., ge=0, validation_alias=AliasChoices("start_s", "time_s"))
+    end_s: float | None = Field(None, ge=0)
+    duration_s: MetricValue = Field(None, ge=0)
+
+    @field_validator("duration_s", mode="before")
+    @classmethod
+    def _nan_to_none(cls, v: Any) -> Any:
+        return _finite_or_none(v)
+
+    def as_transfer(self) -> TransferIn:
+        d = self.duration_s
+        if d is None and self.end_s is not None:
+            d = self.end_s - self.start_s
+        return TransferIn.model_validate(
+            {
+                **self.extras(),
+                "kind": "tug",
+                "start_s": self.start_s,
+                "end_s": self.end_s,
+                "duration_s": d,
+                "tug_time_s": d,
+            }
+        )
+
+
 class GaitResultIn(_Extras):
-    """The ``gait --json`` object (CONVENTIONS) with optional transfers and falls."""
+    """The ``gait --json`` object (CONVENTIONS) with optional transfers, TUGs and falls.
+
+    ``tug`` entries (``gait.result.GaitReport.tug``) are stored as transfers of kind ``tug``.
+    """
 
     bouts: list[BoutIn] = Field(default_factory=list, max_length=MAX_ITEMS)
     events: list[EventIn] = Field(default_factory=list, max_length=20 * MAX_ITEMS)
     summary: SummaryIn
     transfers: list[TransferIn] = Field(default_factory=list, max_length=MAX_ITEMS)
+    tug: list[TugIn] = Field(default_factory=list, max_length=MAX_ITEMS)
     falls: list[FallIn] = Field(default_factory=list, max_length=MAX_ITEMS)
 
-    @field_validator("transfers", "falls", mode="before")
+    @field_validator("transfers", "falls", "tug", mode="before")
     @classmethod
     def _lists(cls, v: Any) -> Any:
         return [] if v is None else _unwrap_list(v)
+
+    @model_validator(mode="after")
+    def _tugs_are_transfers(self) -> GaitResultIn:
+        self.transfers = [*self.transfers, *(t.as_transfer() for t in self.tug)]
+        self.tug = []
+        return self
 
 
 class RecordingInfo(BaseModel):
