@@ -70,6 +70,16 @@ def test_trends_day_week_month_with_baseline(world: World) -> None:
     assert week["points"][1]["start"] == "2026-01-05"  # Monday
     assert len(week["points"]) == 11
 
+    assert world.client.app.state.audit.flush() >= 2  # trend reads are audited in batches
+    with world.sessions() as s:
+        reads = s.scalars(
+            select(AuditEntry).where(
+                AuditEntry.action == "read", AuditEntry.resident_id == world.r1
+            )
+        ).all()
+    assert any(e.target.startswith("trends:walking_speed_m_s:week") for e in reads)
+    assert all(e.actor.endswith("carer a") for e in reads)
+
     month = c.get(q + "&bucket=month", headers=h).json()
     assert [m["start"] for m in month["points"]] == ["2026-01-01", "2026-02-01", "2026-03-01"]
     assert [m["count"] for m in month["points"]] == [93, 84, 33]

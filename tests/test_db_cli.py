@@ -123,3 +123,49 @@ def test_keys_residents_ingest_backup(db: str, tmp_path: Path, capsys) -> None:
     assert code == 2 and "--yes" in err
     code, out, _ = run(capsys, "resident", "erase", str(rid), "--yes", "--db", db)
     assert code == 0 and "pose logs deleted 1" in out and not log.exists()
+
+
+def test_serve_answers_on_loopback_and_stops(db: str, tmp_path: Path) -> None:
+    import os
+    import socket
+    import subprocess
+    import sys
+    import time
+
+    import httpx
+
+    assert main(["db", "upgrade", "--db", db]) == 0
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "service.cli",
+            "-q",
+            "serve",
+            "--db",
+            db,
+            "--port",
+            str(port),
+            "--log-level",
+            "warning",
+        ],
+        env={**os.environ, "GAITWATCH_DATA_DIR": str(tmp_path / "data")},
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            assert proc.poll() is None, "server exited"
+            try:
+                r = httpx.get(f"http://127.0.0.1:{port}/healthz", timeout=1)
+                break
+            except httpx.HTTPError:
+                assert time.monotonic() < deadline, "server did not answer"
+                time.sleep(0.2)
+        assert r.json()["database"] == "ok"
+        assert httpx.get(f"http://127.0.0.1:{port}/residents").status_code == 401
+    finally:
+        proc.terminate()
+        proc.wait(timeout=20)

@@ -8,6 +8,7 @@ from typing import Any
 from fastapi import APIRouter, Request, Response, status
 from pydantic import BaseModel, Field
 from sqlalchemy import func, select
+from sqlalchemy.orm import selectinload
 
 from service.api.deps import (
     AdminDep,
@@ -116,7 +117,10 @@ def list_recordings(
     q = select(Recording).where(Recording.resident_id == resident_id)
     total = session.scalar(select(func.count()).select_from(q.subquery()))
     recs = session.scalars(
-        q.order_by(Recording.started_at.desc()).limit(page.limit).offset(page.offset)
+        q.options(selectinload(Recording.cameras))
+        .order_by(Recording.started_at.desc())
+        .limit(page.limit)
+        .offset(page.offset)
     ).all()
     items = [
         {
