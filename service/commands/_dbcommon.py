@@ -6,12 +6,12 @@ import argparse
 import getpass
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
 
-from sqlalchemy.orm import Session
+if TYPE_CHECKING:  # heavy imports wait until a command runs (keeps `gaitwatch --help` fast)
+    from sqlalchemy.orm import Session
 
-from service.config import Settings, load_settings
-from service.db.migrate import require_current_schema
-from service.db.session import make_engine, make_sessionmaker
+    from service.config import Settings
 
 
 def add_db_option(p: argparse.ArgumentParser) -> None:
@@ -24,6 +24,8 @@ def add_db_option(p: argparse.ArgumentParser) -> None:
 
 
 def settings_from(args: argparse.Namespace, **extra: object) -> Settings:
+    from service.config import load_settings
+
     return load_settings(database_url=getattr(args, "db", None), **extra)
 
 
@@ -38,6 +40,9 @@ def cli_actor() -> str:
 @contextmanager
 def open_session(settings: Settings) -> Iterator[Session]:
     """A session on the configured database, after checking its schema is current."""
+    from service.db.migrate import require_current_schema
+    from service.db.session import make_engine, make_sessionmaker
+
     engine = make_engine(settings.db_url, pool_size=2)
     try:
         require_current_schema(engine)

@@ -4,13 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from sqlalchemy import select
-from sqlalchemy.orm import selectinload
-
-from service.api.security import create_api_key, revoke_api_key
 from service.commands._dbcommon import add_db_option, cli_actor, open_session, settings_from
-from service.db import audit
-from service.db.models import ApiKey
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -39,6 +33,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_create(args: argparse.Namespace) -> int:
+    from service.api.security import create_api_key
+    from service.db import audit
+
     with open_session(settings_from(args)) as session:
         name = args.name or f"{args.role} key"
         key, token = create_api_key(session, name=name, role=args.role, resident_ids=args.resident)
@@ -59,6 +56,11 @@ def run_create(args: argparse.Namespace) -> int:
 
 
 def run_list(args: argparse.Namespace) -> int:
+    from sqlalchemy import select
+    from sqlalchemy.orm import selectinload
+
+    from service.db.models import ApiKey
+
     with open_session(settings_from(args)) as session:
         keys = session.scalars(
             select(ApiKey).options(selectinload(ApiKey.residents)).order_by(ApiKey.id)
@@ -72,6 +74,9 @@ def run_list(args: argparse.Namespace) -> int:
 
 
 def run_revoke(args: argparse.Namespace) -> int:
+    from service.api.security import revoke_api_key
+    from service.db import audit
+
     with open_session(settings_from(args)) as session:
         key = revoke_api_key(session, args.id)
         audit.record(session, actor=cli_actor(), action="apikey_revoke", target=f"api_key:{key.id}")

@@ -6,9 +6,6 @@ import argparse
 from pathlib import Path
 
 from service.commands._dbcommon import add_db_option, settings_from
-from service.db.backup import backup_database
-from service.db.migrate import schema_status, upgrade
-from service.db.session import make_engine
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -31,6 +28,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_upgrade(args: argparse.Namespace) -> int:
+    from service.db.migrate import schema_status, upgrade
+    from service.db.session import make_engine
+
     settings = settings_from(args)
     url = settings.db_url
     copy = upgrade(url, backup_dir=settings.backup_dir, revision=args.revision)
@@ -46,6 +46,9 @@ def run_upgrade(args: argparse.Namespace) -> int:
 
 
 def run_current(args: argparse.Namespace) -> int:
+    from service.db.migrate import schema_status
+    from service.db.session import make_engine
+
     settings = settings_from(args)
     engine = make_engine(settings.db_url, pool_size=1)
     try:
@@ -58,6 +61,8 @@ def run_current(args: argparse.Namespace) -> int:
 
 
 def run_backup(args: argparse.Namespace) -> int:
+    from service.db.backup import backup_database
+
     settings = settings_from(args)
     out = backup_database(settings.db_url, args.out, overwrite=args.force)
     print(f"backup written to {out}")

@@ -7,15 +7,10 @@ import datetime as dt
 import json
 from pathlib import Path
 
-from pydantic import ValidationError
-from sqlalchemy import select
-
+from gaitwatch.errors import InputError
 from service.commands._dbcommon import add_db_option, cli_actor, open_session, settings_from
-from service.db import audit
-from service.db.baselines import BaselineRule
-from service.db.erasure import erase_resident, file_sha256
-from service.db.ingest import IngestError, ingest
-from service.db.models import Resident
+
+# Database modules are imported inside the commands, so `gaitwatch --help` stays fast.
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -59,13 +54,17 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_add(args: argparse.Namespace) -> int:
+    from pydantic import ValidationError
+
     from service.api.schemas import ResidentCreate
+    from service.db import audit
+    from service.db.models import Resident
 
     try:
         body = ResidentCreate(display_name=args.name, height_m=args.height, timezone=args.timezone)
     except ValidationError as err:
         e = err.errors()[0]
-        raise IngestError(f"resident: {'.'.join(map(str, e['loc']))}: {e['msg']}") from None
+        raise InputError(f"resident: {'.'.join(map(str, e['loc']))}: {e['msg']}") from None
     with open_session(settings_from(args)) as session:
         r = Resident(**body.model_dump())
         session.add(r)
@@ -79,6 +78,11 @@ def run_add(args: argparse.Namespace) -> int:
 
 
 def run_list(args: argparse.Namespace) -> int:
+    from sqlalchemy import select
+
+    from service.db import audit
+    from service.db.models import Resident
+
     with open_session(settings_from(args)) as session:
         for r in session.scalars(select(Resident).order_by(Resident.id)):
             h = f"{r.height_m:.2f} m" if r.height_m else "-"
@@ -89,8 +93,10 @@ def run_list(args: argparse.Namespace) -> int:
 
 
 def run_erase(args: argparse.Namespace) -> int:
+    from service.db.erasure import erase_resident
+
     if not args.yes:
-        raise IngestError(f"erasing resident {args.id} cannot be undone: add --yes")
+        raise InputError(f"erasing resident {args.id} cannot be undone: add --yes")
     with open_session(settings_from(args)) as session:
         rep = erase_resident(session, args.id, actor=cli_actor())
     print(f"resident {args.id} erased: " + ", ".join(f"{k} {v}" for k, v in rep.rows.items()))
@@ -102,16 +108,20 @@ def run_erase(args: argparse.Namespace) -> int:
 
 
 def run_ingest(args: argparse.Namespace) -> int:
+    from service.db.baselines import BaselineRule
+    from service.db.erasure import file_sha256
+    from service.db.ingest import ingest
+
     try:
         result = json.loads(args.result.read_text(encoding="utf-8"))
     except json.JSONDecodeError as err:
-        raise IngestError(f"{args.result}: not JSON ({err})") from None
+        raise InputError(f"{args.result}: not JSON ({err})") from None
     try:
         start = dt.datetime.fromisoformat(args.start)
     except ValueError:
-        raise IngestError(f"--start: {args.start!r} is not an ISO date-time") from None
+        raise InputError(f"--start: {args.start!r} is not an ISO date-time") from None
     if start.tzinfo is None:
-        raise IngestError("--start: give a time zone (e.g. Z or +01:00)")
+        raise InputError("--start: give a time zone (e.g. Z or +01:00)")
     settings = settings_from(args)
     info = {
         "resident_id": args.resident,
