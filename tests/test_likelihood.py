@@ -75,7 +75,13 @@ def _row_edges(mask: np.ndarray) -> int:
 def test_projection_matches_camera(cameras: list[Camera]) -> None:
     rng = np.random.default_rng(0)
     pts = rng.uniform([-1, -1, 0], [1, 1, 2], (50, 3))
-    for cam in cameras:
+    thin_prism = Camera.look_at(
+        name="rational-thin-prism",
+        position=[2.0, -3.0, 2.0],
+        target=[0, 0, 1],
+        dist=[0.2, -0.1, 0.001, -0.002, 0.02, 0.05, -0.01, 0.003, 0.001, -0.002, 0.003, 0.001],
+    )
+    for cam in [*cameras, thin_prism]:
         row = raster.pack_camera(cam.R, cam.t, cam.K, cam.dist)[None]
         ref = cam.project(pts)
         got = np.array([raster.project_point(*p, row, 0)[:2] for p in pts])
