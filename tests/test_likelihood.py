@@ -10,7 +10,7 @@ from tracker import raster
 from tracker.body import BodyModel
 from tracker.camera import Camera
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, JointLimits, clamp
-from tracker.likelihood import SilhouetteLikelihood, weight_from_counts
+from tracker.likelihood import SilhouetteLikelihood, warm_up, weight_from_counts
 from tracker.render_ref import capsule_discs, counts_reference, render_reference
 
 # Tolerance of the fast path against the reference (drawn at 7x and sampled at pixel centres):
@@ -268,3 +268,9 @@ def test_pack_rows_round_trip() -> None:
 @numba.njit
 def _popcount(x: np.uint64) -> int:
     return raster.popcount64(x)
+
+
+def test_warm_up_compiles_every_kernel() -> None:
+    assert warm_up() >= 0.0
+    for kernel in (raster.counts_kernel, raster.counts_factored_kernel, raster.render_one_kernel):
+        assert kernel.signatures  # compiled (or loaded from the cache)

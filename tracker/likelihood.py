@@ -59,8 +59,6 @@ def warm_up() -> float:
     """
     import time
 
-    from tracker.camera import Camera
-
     t = time.perf_counter()
     body = BodyModel()
     cam = Camera.look_at(name="warm-up", position=[4, 0, 1.5], target=[0, 0, 0.9])
