@@ -193,7 +193,7 @@ class OriginSearchConfig(_Model):
     passes: Annotated[int, Field(ge=1, le=4, description="Sweeps over the dimensions")] = 1
     range_xy_m: Annotated[float, Field(gt=0, le=2, description="+- range of x, y at 20 Hz")] = 0.12
     range_z_m: Annotated[float, Field(ge=0, le=1, description="+- range of z at 20 Hz")] = 0.04
-    range_yaw_deg: Annotated[float, Field(ge=0, le=180)] = 12.0
+    range_yaw_deg: Annotated[float, Field(ge=0, le=180)] = 6.0
     range_tilt_deg: Annotated[float, Field(ge=0, le=90, description="pitch and roll")] = 5.0
     velocity_damping: Annotated[
         float,
@@ -229,11 +229,23 @@ class HeadingCheckConfig(_Model):
     """
 
     enabled: bool = True
-    frames: Annotated[int, Field(ge=2, le=100)] = 6
+    frames: Annotated[int, Field(ge=2, le=100)] = 4
     min_speed_m_s: Annotated[float, Field(ge=0, le=5)] = 0.35
     max_angle_deg: Annotated[float, Field(ge=0, le=180)] = 110.0
     span_deg: Annotated[float, Field(ge=0, le=180)] = 40.0
     accept_ratio: Annotated[float, Field(ge=0, le=2)] = 0.85
+
+
+class LegSwapConfig(_Model):
+    """Left/right leg-swap check (the legs look alike, and a local search cannot cross them).
+
+    After the filter step the ``candidates`` heaviest distinct particles are weighed with their
+    left- and right-leg DOFs exchanged; when one outweighs the estimate it becomes the estimate
+    and the swapped particles join the filter's set (so the next selection keeps them).
+    """
+
+    enabled: bool = True
+    candidates: Annotated[int, Field(ge=1, le=1000)] = 9
 
 
 class TrackerConfig(_Model):
@@ -254,6 +266,7 @@ class TrackerConfig(_Model):
     origin: OriginSearchConfig = Field(default_factory=OriginSearchConfig)
     init: InitConfig = Field(default_factory=InitConfig)
     heading_check: HeadingCheckConfig = Field(default_factory=HeadingCheckConfig)
+    leg_swap: LegSwapConfig = Field(default_factory=LegSwapConfig)
     limits_profile: Annotated[str, Field(description="tracker.dof limit profile")] = "walking"
     limits_overrides_deg: dict[str, tuple[float, float]] = {}
     reference_dt_s: Annotated[float, Field(gt=0, le=1)] = 0.05

@@ -32,8 +32,8 @@ import numpy as np
 
 from gaitwatch.conventions import SACRUM
 from tracker.config import TrackerConfig
-from tracker.dof import DOF, N_DOF, wrap_angle
-from tracker.filters import Filter, make_filter
+from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, wrap_angle
+from tracker.filters import Filter, make_filter, select_distinct
 from tracker.init import initial_search
 from tracker.origin import search_origin
 from tracker.segmentation import Segmentation, Segmenter, keep_blobs
@@ -295,7 +295,30 @@ class Tracker:
             )
             self.filter.set_root(origin.pose[:6])
         est = self.filter.step(self._lik, dt)
-        return est.pose, est.weight
+        pose, weight = est.pose, est.weight
+        swapped = self._check_leg_swap(weight)
+        if swapped is not None:
+            pose, weight = swapped
+        return pose, weight
+
+    def _check_leg_swap(self, weight: float) -> tuple[np.ndarray, float] | None:
+        """Weigh the heaviest particles with their legs exchanged; adopt a heavier one."""
+        ls = self.config.leg_swap
+        if not ls.enabled:
+            return None
+        f = self.filter
+        idx = select_distinct(f.particles, f.weights, ls.candidates)
+        cand = f.particles[idx].copy()
+        left, right = list(LEFT_LEG), list(RIGHT_LEG)
+        cand[:, left], cand[:, right] = f.particles[idx][:, right], f.particles[idx][:, left]
+        f.clamp(cand)
+        w = np.asarray(self._lik.weights(cand), dtype=np.float64)
+        k = int(np.argmax(w))
+        if not w[k] > weight:
+            return None
+        f.initialise(np.concatenate([cand, f.particles]), np.concatenate([w, f.weights]))
+        log.debug("legs swapped: weight %.3f -> %.3f", weight, w[k])
+        return cand[k].copy(), float(w[k])
 
     def _check_heading(
         self, pose: np.ndarray, weight: float, masks: list[np.ndarray], dt: float, time_s: float
