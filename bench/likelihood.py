@@ -160,7 +160,7 @@ def main() -> None:
         f"{'resolution':>10} {'cams':>4} {'threads':>7} {'factored evals/s':>17} "
         f"{'per CPU-s':>12}  (M x 9 x 9)"
     )
-    m = 100 if args.quick else 400
+    m = 200 if args.quick else 2000
     for width, height in ((160, 120), (320, 240)):
         for n_cams in (1, 3):
             cams = _scene(width, height, n_cams)
