@@ -37,7 +37,7 @@ def make_clip(folder: Path, n_frames: int, n_cameras: int, seed: int = 0) -> lis
     body = BodyModel(1.70)
     size = (640, 480)
     cams = side_cameras(n_cameras, image_size=size, centre=(1.0, 0.0), fps=20.0)
-    poses = walking_motion(body, n_frames, fps=20.0, speed_m_s=0.9, start_xy=(-0.2, 0.0))
+    poses = walking_motion(body, n_frames, fps=20.0, speed_m_s=0.5, start_xy=(-0.25, 0.0))
     bgs = [textured_background(*size, rng) for _ in cams]
     renderer = SilhouetteLikelihood(body, cams)
     writers = []
@@ -62,12 +62,24 @@ def make_clip(folder: Path, n_frames: int, n_cameras: int, seed: int = 0) -> lis
     return args
 
 
-def run_track(args: list[str], out: Path, threads: int, frames: int, filt: str) -> float:
-    """Seconds the ``track`` loop took (as the command reports it) for ``frames`` frames."""
+_CHILD = (
+    "import resource, sys\n"
+    "from service.commands.track import main\n"
+    "rc = main(sys.argv[1:])\n"
+    "print('maxrss_kb', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n"
+    "sys.exit(rc)\n"
+)
+
+
+def run_track(
+    args: list[str], out: Path, threads: int, frames: int, filt: str
+) -> tuple[float, float]:
+    """Seconds the ``track`` loop took (as the command reports it) for ``frames`` frames, and the
+    process's peak resident memory in MB."""
     cmd = [
         sys.executable,
-        "-m",
-        "service.commands.track",
+        "-c",
+        _CHILD,
         "-q",
         *args,
         "--out",
@@ -83,10 +95,13 @@ def run_track(args: list[str], out: Path, threads: int, frames: int, filt: str) 
     res = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if res.returncode != 0:
         raise SystemExit(f"track failed ({res.returncode}): {res.stderr.strip()}")
-    m = re.search(r"(\d+) frame\(s\).*?; ([0-9.]+) s \(", res.stdout)
-    if not m or int(m.group(1)) != frames:
+    m = re.search(r"(\d+) frame\(s\): (\d+) with a pose.*?; ([0-9.]+) s \(", res.stdout)
+    rss = re.search(r"maxrss_kb (\d+)", res.stdout)
+    if not m or int(m.group(1)) != frames or not rss:
         raise SystemExit(f"unexpected output: {res.stdout!r}")
-    return float(m.group(2))
+    if int(m.group(2)) != frames:
+        print(f"  note: only {m.group(2)} of {frames} frames had a pose")
+    return float(m.group(3)), int(rss.group(1)) / 1024
 
 
 def main() -> None:
@@ -107,15 +122,20 @@ def main() -> None:
             "particles, likelihood 160x120"
         )
         # Warm the numba cache once so that no run pays compilation.
-        run_track(track_args, folder / "warm.mcap", max(args.threads), 2, args.filter)
+        run_track(track_args, folder / "warm.mcap", max(args.threads), 2, args.filter)[0]
         for th in args.threads:
-            t_short = run_track(track_args, folder / "s.mcap", th, args.short, args.filter)
-            t_full = run_track(track_args, folder / "f.mcap", th, args.frames, args.filter)
+            t_short, rss_short = run_track(
+                track_args, folder / "s.mcap", th, args.short, args.filter
+            )
+            t_full, rss_full = run_track(
+                track_args, folder / "f.mcap", th, args.frames, args.filter
+            )
             steady = (args.frames - args.short) / max(t_full - t_short, 1e-9)
             print(
                 f"threads {th}: {args.frames / t_full:6.1f} frames/s overall "
                 f"({args.frames} frames in {t_full:.2f} s, first-frame initialisation included); "
-                f"{steady:6.1f} frames/s steady state"
+                f"{steady:6.1f} frames/s steady state; peak memory {rss_short:.0f} MB after "
+                f"{args.short} frames, {rss_full:.0f} MB after {args.frames}"
             )
 
 

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import cv2
@@ -83,6 +84,26 @@ class FrameResult:
     @property
     def has_pose(self) -> bool:
         return self.pose is not None
+
+
+@contextmanager
+def _single_thread():
+    """Run small likelihood batches on one numba thread.
+
+    The origin search weighs 12 batches of 7 poses per frame; spreading such batches over
+    threads costs more in synchronisation than it gains, badly so on a busy machine.
+    """
+    try:
+        import numba
+    except ImportError:  # pragma: no cover - numba is a dependency
+        yield
+        return
+    n = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(n)
 
 
 class _CountingLikelihood:
@@ -284,15 +305,16 @@ class Tracker:
         assert self.prev_pose is not None
         c = self.config
         if c.origin.enabled:
-            origin = search_origin(
-                self._lik,
-                self.prev_pose,
-                c.origin,
-                limits=self.limits,
-                dt=dt,
-                reference_dt=c.reference_dt_s,
-                velocity_xy=self.velocity_xy,
-            )
+            with _single_thread():
+                origin = search_origin(
+                    self._lik,
+                    self.prev_pose,
+                    c.origin,
+                    limits=self.limits,
+                    dt=dt,
+                    reference_dt=c.reference_dt_s,
+                    velocity_xy=self.velocity_xy,
+                )
             self.filter.set_root(origin.pose[:6])
         est = self.filter.step(self._lik, dt)
         pose, weight = est.pose, est.weight
@@ -312,7 +334,8 @@ class Tracker:
         left, right = list(LEFT_LEG), list(RIGHT_LEG)
         cand[:, left], cand[:, right] = f.particles[idx][:, right], f.particles[idx][:, left]
         f.clamp(cand)
-        w = np.asarray(self._lik.weights(cand), dtype=np.float64)
+        with _single_thread():
+            w = np.asarray(self._lik.weights(cand), dtype=np.float64)
         k = int(np.argmax(w))
         if not w[k] > weight:
             return None
