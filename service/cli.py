@@ -18,25 +18,39 @@ from gaitwatch.errors import InputError
 
 log = logging.getLogger("gaitwatch")
 
-# Order is the order of ``gaitwatch --help``.
-COMMAND_MODULES: tuple[str, ...] = (
-    "service.commands.demo",
-    "service.commands.track",
-    "service.commands.export",
-    "service.commands.gait",
-    "service.commands.camera",
-    "service.commands.residents",
-    "service.commands.apikey",
-    "service.commands.db",
-    "service.commands.serve",
-    "service.commands.simulate",
-)
+# Top-level command -> (module that registers it, one-line help). Order is that of
+# ``gaitwatch --help``. Only the module of the command being run is imported, so every call
+# (and ``--help``) starts fast; the others appear in the help as their one-line summary.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "demo": ("service.commands.demo", "run the pipeline end to end on built-in data"),
+    "simulate": ("service.commands.simulate", "render footage of a recorded motion; camera advice"),
+    "track": ("service.commands.track", "track a person in video into a 3D pose log (MCAP)"),
+    "export": ("service.commands.export", "export a pose log's joints to JOINTS.csv"),
+    "gait": ("service.commands.gait", "gait parameters, balance, transfers, falls and risk"),
+    "camera": ("service.commands.camera", "camera file tools (check a calibration)"),
+    "resident": ("service.commands.residents", "add, list or erase residents"),
+    "ingest": ("service.commands.residents", "store a `gait --json` result for a resident"),
+    "apikey": ("service.commands.apikey", "create, list and revoke API keys"),
+    "db": ("service.commands.db", "database schema and backups"),
+    "serve": ("service.commands.serve", "run the caregivers' REST API"),
+}
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILURE = 1
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _requested_command(argv: Sequence[str]) -> str | None:
+    """The first positional argument: the sub-command (top-level options take no values)."""
+    for arg in argv:
+        if arg == "--":
+            return None
+        if not arg.startswith("-"):
+            return arg
+    return None
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser; only ``command``'s own parser is built in full."""
     parser = argparse.ArgumentParser(
         prog="gaitwatch",
         description="Markerless 3D gait and fall-risk monitoring (Interval Particle Filtering).",
@@ -47,8 +61,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in COMMAND_MODULES:
-        importlib.import_module(name).register(sub)
+    if command in COMMANDS:
+        importlib.import_module(COMMANDS[command][0]).register(sub)
+    for name, (_module, summary) in COMMANDS.items():
+        if name not in sub.choices:  # listed in --help; parsed fully only when it is run
+            sub.add_parser(name, help=summary)
     return parser
 
 
@@ -60,7 +77,9 @@ def _setup_logging(verbose: int, quiet: bool) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = _requested_command(argv)
+    parser = build_parser(command)
     args = parser.parse_args(argv)
     _setup_logging(args.verbose, args.quiet)
     if not getattr(args, "func", None):
