@@ -139,6 +139,12 @@ def run(args: argparse.Namespace) -> int:
             check_image_size(cam, img.shape[1], img.shape[0], what=f"background {path}")
             backgrounds.append(img)
     config = build_config(args)
+    if backgrounds is None and config.segmentation.mode == "static":
+        # No image of the empty scene: learn the background from the footage.
+        config = config.model_copy(
+            update={"segmentation": config.segmentation.model_copy(update={"mode": "mog2"})}
+        )
+        log.info("no --background: learning the background from the footage (mog2)")
     if args.threads is not None:
         import numba
 
