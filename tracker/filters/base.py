@@ -189,8 +189,10 @@ class Filter(ABC):
     def set_root(self, root: np.ndarray) -> None:
         """Give every particle the body origin (6,) found for this frame (x, y, z, yaw, pitch,
         roll)."""
-        self.particles[:, list(ROOT_DOFS)] = np.asarray(root, dtype=np.float64)
-        self.clamp(self.particles)
+        r = np.zeros((1, N_DOF))
+        r[0, list(ROOT_DOFS)] = np.asarray(root, dtype=np.float64)
+        self.clamp(r)
+        self.particles[:, list(ROOT_DOFS)] = r[0, list(ROOT_DOFS)]
 
     def step(self, likelihood: Likelihood, dt: float) -> Estimate:
         """Advance one frame of interval ``dt`` seconds; returns the heaviest particle."""

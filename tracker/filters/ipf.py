@@ -124,8 +124,8 @@ class IntervalParticleFilter(Filter):
         out = np.repeat(base[:, None, :], self.I, axis=1)  # (M, I, 31)
         for k, dof in enumerate(self.L):
             out[:, :, dof] = vals[:, k, self.combos[:, k]]
-        out = out.reshape(m * self.I, N_DOF)
-        return self.clamp(out)
+        # Inside the limits by construction: base is clamped, the grid values are clipped.
+        return out.reshape(m * self.I, N_DOF)
 
     def measure(self, likelihood: Likelihood, particles: np.ndarray) -> np.ndarray:
         """Weights (M * I,) of the predicted particles, factored by legs where exact."""
