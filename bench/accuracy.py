@@ -54,7 +54,7 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from gaitwatch.conventions import BONE_INDICES, L_HIP, R_HIP, SACRUM
+from gaitwatch.conventions import BONE_INDICES, L_HEEL, L_HIP, L_TOE, R_HEEL, R_HIP, R_TOE, SACRUM
 from gaitwatch.evaluation import (
     JOINT_GROUPS,
     LOWER_LIMB,
@@ -111,6 +111,15 @@ DEFAULT_PLAN: tuple[tuple[str, str], ...] = tuple(
 )
 QUICK_PLAN: tuple[tuple[str, str], ...] = (("07_06", "oblique"), ("07_06", "side+frontal"))
 FILTERS = ("ipf", "apf", "condensation")
+# Non-default variants for experiments (not in the default run): name -> TrackerConfig fields
+FILTER_VARIANTS: dict[str, dict] = {
+    "ipf": {"filter": "ipf"},
+    "apf": {"filter": "apf"},
+    "condensation": {"filter": "condensation"},
+    "ipf-velocity": {"filter": "ipf", "ipf": {"interval_centre": "velocity"}},
+    "ipf-wide": {"filter": "ipf", "ipf": {"interval_deg": 30.0}},
+}
+ALL_FILTERS = tuple(FILTER_VARIANTS)
 VIEWS = ("side", "oblique", "frontal")
 
 TABLE_KEYS = (
@@ -355,7 +364,7 @@ def track(
     from tracker.config import TrackerConfig
     from tracker.pipeline import Tracker
 
-    cfg = TrackerConfig(filter=filt)
+    cfg = TrackerConfig.model_validate(FILTER_VARIANTS[filt])
     tr = Tracker(cams, cfg, rng=np.random.default_rng(seed), height_m=stature, backgrounds=bgs)
     out_f, out_t, joints, times_ms, ev_tr, ev_init, statuses = [], [], [], [], [], [], []
     seg_iou, est_iou, seen, weights, fit_w, est_w = [], [], [], [], [], []
@@ -406,7 +415,6 @@ def track(
         "evals_init": float(statistics.median(ev_init)) if ev_init else math.nan,
         "filter_evaluations": int(tr.filter.evaluations_per_step),
         "reinits": sum(s == "reinitialised" for s in statuses),
-        "origin_evals": _origin_evals(cfg),
         "seg_iou": float(np.nanmean(seg_iou)) if seg_iou else math.nan,
         "est_iou": float(np.nanmean(est_iou)) if est_iou else math.nan,
         "weight": float(np.mean(weights)) if weights else math.nan,
@@ -418,13 +426,9 @@ def track(
     return est, info
 
 
-def _origin_evals(cfg) -> int:
-    o = cfg.origin
-    return 6 * o.steps * o.levels * o.passes if o.enabled else 0
-
-
-def diagnostics(truth: Trajectory, est: Trajectory) -> dict[str, float]:
-    """Heading error, sacrum errors and where the worst frame is (for the diagnosis)."""
+def diagnostics(truth: Trajectory, est: Trajectory, camera) -> dict[str, float]:
+    """Heading error, sacrum errors, depth error along the first camera's line of sight, foot
+    height, and where the worst frame is (for the diagnosis)."""
     from gait.geometry import body_forward
     from gaitwatch.evaluation import align
 
@@ -438,6 +442,12 @@ def diagnostics(truth: Trajectory, est: Trajectory) -> dict[str, float]:
     sac = (ep[:, SACRUM] - tp[:, SACRUM]) * 1000
     err = joint_errors_mm(tp, ep)
     lower = np.nanmean(err[:, list(LOWER_LIMB)], axis=1)
+    centre = np.asarray(camera.center, dtype=np.float64)
+    depth = np.linalg.norm(ep[:, SACRUM] - centre, axis=1) - np.linalg.norm(
+        tp[:, SACRUM] - centre, axis=1
+    )
+    feet = [L_HEEL, R_HEEL, L_TOE, R_TOE]
+    foot_z = np.nanmin(ep[:, feet, 2], axis=1) - np.nanmin(tp[:, feet, 2], axis=1)
     width_t = np.linalg.norm(tp[:, L_HIP] - tp[:, R_HIP], axis=1)
     width_e = np.linalg.norm(ep[:, L_HIP] - ep[:, R_HIP], axis=1)
     return {
@@ -446,6 +456,8 @@ def diagnostics(truth: Trajectory, est: Trajectory) -> dict[str, float]:
         "heading_flip": float(np.mean(head > 90)),
         "sacrum_xy_mm": float(np.nanmean(np.linalg.norm(sac[:, :2], axis=1))),
         "sacrum_dz_mm": float(np.nanmean(sac[:, 2])),
+        "depth_mm": float(np.nanmean(depth) * 1000),
+        "foot_dz_mm": float(np.nanmedian(foot_z) * 1000),
         "first_half_mm": float(np.nanmean(err[: max(1, len(err) // 2)])),
         "second_half_mm": float(np.nanmean(err[len(err) // 2 :])),
         "worst_frame": int(truth.frames[it[int(np.nanargmax(lower))]]),
@@ -509,7 +521,7 @@ def summary_groups(runs: list[Run]) -> dict[tuple[int, str, str], list[Run]]:
     for r in runs:
         groups[(r.ncams, r.view.label, r.filter)].append(r)
     return dict(
-        sorted(groups.items(), key=lambda kv: (kv[0][0], kv[0][1], FILTERS.index(kv[0][2])))
+        sorted(groups.items(), key=lambda kv: (kv[0][0], kv[0][1], ALL_FILTERS.index(kv[0][2])))
     )
 
 
@@ -527,7 +539,7 @@ def summary_table(runs: list[Run]) -> str:
 
 def filter_table(runs: list[Run]) -> str:
     rows = []
-    for f in FILTERS:
+    for f in ALL_FILTERS:
         rs = [r for r in runs if r.filter == f]
         if not rs:
             continue
@@ -549,7 +561,7 @@ def diag_table(runs: list[Run]) -> str:
     for r in runs:
         d = r.diag
         if not d:
-            rows.append([r.recording, r.view.label, r.filter] + ["-"] * 15)
+            rows.append([r.recording, r.view.label, r.filter] + ["-"] * 17)
             continue
         rows.append(
             [
@@ -561,6 +573,8 @@ def diag_table(runs: list[Run]) -> str:
                 f"{100 * d['heading_flip']:.0f}%",
                 f"{d['sacrum_xy_mm']:.0f}",
                 f"{d['sacrum_dz_mm']:+.0f}",
+                f"{d['depth_mm']:+.0f}",
+                f"{d['foot_dz_mm']:+.0f}",
                 f"{d['first_half_mm']:.0f} / {d['second_half_mm']:.0f}",
                 f"{d['hip_width_ratio']:.2f}",
                 str(r.reinits),
@@ -583,6 +597,8 @@ def diag_table(runs: list[Run]) -> str:
             "facing flipped (>90 deg)",
             "sacrum xy mm",
             "sacrum z bias mm",
+            "depth err cam0 mm",
+            "lowest foot z err mm",
             "all mm 1st / 2nd half",
             "hip width est/true",
             "re-inits",
@@ -717,8 +733,8 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
 ## Per filter, all scenes pooled (equal likelihood evaluations)
 
 "filter evals/frame" is the filter's own `evaluations_per_step`; "all evals/tracked frame" adds
-the body-origin search ({_origin_evals(_default_config())} evaluations) that runs before every
-filter. Initialisation frames spend more (the exhaustive search).
+the body-origin search that runs before every filter (the same for all filters), measured by
+counting the likelihood calls. Initialisation frames spend more (the exhaustive search).
 
 {filter_table(runs)}
 
@@ -739,12 +755,6 @@ filter. Initialisation frames spend more (the exhaustive search).
     return body
 
 
-def _default_config():
-    from tracker.config import TrackerConfig
-
-    return TrackerConfig()
-
-
 # -- main -------------------------------------------------------------------------------------
 
 
@@ -756,7 +766,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         "--views", help="comma list of view specs (e.g. oblique,side+frontal,oblique@table)"
     )
     ap.add_argument(
-        "--filters", default=",".join(FILTERS), help="comma list (ipf,apf,condensation)"
+        "--filters",
+        default=",".join(FILTERS),
+        help=f"comma list among {', '.join(ALL_FILTERS)} (default: the three filters)",
     )
     ap.add_argument("--max-frames", type=int, default=None, help="frames per scene (default 40)")
     ap.add_argument("--seed", type=int, default=0)
@@ -800,7 +812,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"accuracy: no shared recordings at {args.data}", file=sys.stderr)
         return 2
     filters = [f.strip() for f in args.filters.split(",") if f.strip()]
-    bad = [f for f in filters if f not in FILTERS]
+    bad = [f for f in filters if f not in FILTER_VARIANTS]
     if bad:
         raise SystemExit(f"unknown filter(s): {', '.join(bad)}")
     plan = make_plan(args)
@@ -838,7 +850,7 @@ def main(argv: list[str] | None = None) -> int:
                     ms_per_frame=info["ms"],
                     evaluations_per_frame=info["evals_tracked"],
                 )
-                d = diagnostics(truth, est)
+                d = diagnostics(truth, est, cams[0])
                 if d:
                     d.update(
                         seg_iou=info["seg_iou"],
