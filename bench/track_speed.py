@@ -37,7 +37,7 @@ def make_clip(folder: Path, n_frames: int, n_cameras: int, seed: int = 0) -> lis
     body = BodyModel(1.70)
     size = (640, 480)
     cams = side_cameras(n_cameras, image_size=size, centre=(1.0, 0.0), fps=20.0)
-    poses = walking_motion(body, n_frames, fps=20.0, speed_m_s=0.5, start_xy=(-0.25, 0.0))
+    poses = walking_motion(body, n_frames, fps=20.0, speed_m_s=0.3, start_xy=(-0.25, 0.0))
     bgs = [textured_background(*size, rng) for _ in cams]
     renderer = SilhouetteLikelihood(body, cams)
     writers = []

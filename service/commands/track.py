@@ -212,7 +212,7 @@ def run(args: argparse.Namespace) -> int:
     n = n_pose + n_none
     print(
         f"tracked {n} frame(s): {n_pose} with a pose, {n_none} without; "
-        f"{elapsed:.1f} s ({n / max(elapsed, 1e-9):.1f} frames/s, filter {tracker.filter_name}) "
+        f"{elapsed:.2f} s ({n / max(elapsed, 1e-9):.1f} frames/s, filter {tracker.filter_name}) "
         f"-> {out}"
     )
     if videos.length_mismatch:
