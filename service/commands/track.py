@@ -20,6 +20,7 @@ the same poses.
 from __future__ import annotations
 
 import argparse
+import itertools
 import logging
 import sys
 import time
@@ -192,9 +193,7 @@ def run(args: argparse.Namespace) -> int:
             dynamic_ncols=True,
         ) as bar,
     ):
-        for k, (index, time_s, frames) in enumerate(videos):
-            if args.max_frames is not None and k >= args.max_frames:
-                break
+        for index, time_s, frames in itertools.islice(videos, args.max_frames):
             res = tracker.process(index, time_s, frames)
             if res.has_pose:
                 writer.write_frame(
