@@ -14,7 +14,12 @@ I/O: the caller decodes video and writes the pose log) and returns a :class:`Fra
    :mod:`tracker.init` seeds the filter, followed by one filter step.
 4. Otherwise the **origin search** (:mod:`tracker.origin`) moves the root, holding the previous
    body-part configuration, then the **filter** (IPF, APF or Condensation) updates the body parts.
-5. **Lost track**: best weight below ``lost_weight`` for ``lost_frames`` frames in a row ->
+5. **Leg-swap check**: the heaviest particles are weighed with their legs exchanged; a heavier
+   one becomes the estimate and joins the particle set (``config.leg_swap``).
+6. **Heading check**: when the origin moves faster than a walking threshold in a direction far
+   from the heading (the front/back ambiguity of silhouettes), re-initialise facing the walking
+   direction if that weighs about as much (``config.heading_check``).
+7. **Lost track**: best weight below ``lost_weight`` for ``lost_frames`` frames in a row ->
    re-initialise on that frame (kept if it weighs more than the filter's estimate).
 
 Memory does not grow with the length of the footage: the tracker keeps one particle set and the
