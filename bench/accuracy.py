@@ -7,14 +7,24 @@ condensation, at equal likelihood evaluations per frame), the footage is tracked
 ``tracker.pipeline.Tracker`` (given the empty-scene background and the true stature, as
 ``gaitwatch track --background --height`` would be) and scored against the truth with
 ``gaitwatch.evaluation``. Prints one row per scene and filter, a summary per (cameras, view,
-filter) pooled over recordings, per-filter totals, the target checks and diagnostics (heading
-flips, sacrum height bias, re-initialisations), and writes all of it to ``--out``
+filter) pooled over recordings, per-filter totals, the target checks and diagnostics, and
+writes all of it to ``--out``
 (``bench/RESULTS.md``). A section of that file after the "hand-written" marker is kept when the
 file is rewritten.
 
 Realistic path (default): each scene is written to a temporary folder (mp4v videos, camera YAML,
 background PNGs, ``JOINTS.csv``) and read back, so the tracker sees codec artefacts.
 ``--direct`` tracks the rendered frames in memory instead (no codec, faster).
+
+Diagnostics, to tell the tracker engineer where the error comes from: heading error (first
+frame and median; share of frames facing backwards), sacrum errors (horizontal, height bias,
+distance to the first camera: a one-camera depth slide), lowest-foot height error (feet sinking
+into or floating above the floor), hip width ratio, re-initialisations, silhouette IoU of the
+tracker's segmentation and of the estimate's model mask against the true person mask, and the
+tracker's body model **fitted to the true key points** (least squares over the 31 DOF within
+the joint limits, every ``--fit-step`` frames): its error is the floor set by the model's
+proportions, and its likelihood weight against the estimate's tells a search failure (the fit
+weighs more) from a likelihood ambiguity (a wrong pose weighs more).
 
 ms/frame is the median wall time of ``Tracker.process`` per frame (segmentation, blob choice,
 origin search, filter, forward kinematics; decoding excluded), on whatever load the machine has.
@@ -25,6 +35,9 @@ Run::
     python3 bench/accuracy.py --quick               # smoke run: 1 recording, 2 views, 12 frames
     python3 bench/accuracy.py --recordings 07_06,rajagopal --views oblique,side+frontal \\
         --filters ipf --max-frames 30 --overlays /tmp/overlays --out /tmp/RESULTS.md
+
+``--filters`` also accepts the non-default variants ``ipf-velocity`` (``ipf.interval_centre =
+velocity``) and ``ipf-wide`` (``ipf.interval_deg = 30``) for experiments.
 
 View specs: ``side``, ``oblique``, ``frontal``, several joined by ``+`` (one camera each, e.g.
 ``side+frontal``), optionally ``@table`` or ``@sofa`` for an occluder in front of the first
@@ -688,6 +701,14 @@ def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float
             text=True,
             check=False,
         ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "-C", str(REPO), "status", "--porcelain", "--", "tracker", "gaitwatch", "gait"],
+            capture_output=True,
+            text=True,
+            check=False,
+        ).stdout.strip()
+        if dirty:
+            commit += f" plus uncommitted changes in {len(dirty.splitlines())} file(s)"
     except OSError:
         commit = "?"
     tgt, _ = targets(runs)
