@@ -16,6 +16,7 @@ import pytest
 from gaitwatch.conventions import L_ANKLE, L_HIP, L_KNEE, R_ANKLE, R_HIP, R_KNEE
 from service.cli import main
 from service.poselog import read_poselog
+from tests.conftest import shared_file
 from tracker.camera import save_camera
 from tracker.config import IPFConfig, TrackerConfig
 
@@ -375,3 +376,37 @@ def test_config_file_and_unknown_key(clip: dict, tmp_path: Path, capsys) -> None
     rc = main(_args(clip, out, "--config", str(bad)))
     err = capsys.readouterr().err.strip()
     assert rc == 2 and "bad.yaml" in err and "colour" in err and "unknown key" in err
+
+
+def test_real_footage_smoke(shared_data: Path, tmp_path: Path) -> None:
+    """The Sports2D outdoor clip (one camera, learned background, trees, a second person): the
+    track starts once the background is learned, and the poses stand on the floor."""
+    import tomllib
+
+    from gaitwatch.conventions import SACRUM
+    from tracker.camera import Camera
+    from tracker.pipeline import NO_FLOOR_POINT, NOBODY_IN_VIEW
+
+    video = shared_file(shared_data, "video/outdoor-walk-1768x994-30fps.mp4")
+    calib = tomllib.loads(shared_file(shared_data, "video/outdoor-walk-calib.toml").read_text())
+    d = calib["demo"]
+    R, _ = cv2.Rodrigues(np.array(d["rotation"], dtype=float))
+    cam = Camera.from_params(
+        name="outdoor", image_size=tuple(d["size"]), K=np.array(d["matrix"]), R=R,
+        t=np.array(d["translation"]), dist=d["distortions"], fps=30.0,
+    )  # fmt: skip
+    cam_file = tmp_path / "outdoor.yaml"
+    save_camera(cam, cam_file)
+    out = tmp_path / "p.mcap"
+    args = [str(video), "--camera", str(cam_file), "--height", "1.65", "--out", str(out)]
+    assert main(["-q", "track", *args, "--max-frames", "90", "--no-progress"]) == 0
+    log = read_poselog(out)
+    # measured: no pose for frames 0-35 while MOG2 learns the scene (nobody in view, or only
+    # blobs above the horizon: trees), then 54 poses
+    assert len(log) >= 40
+    known = (NOBODY_IN_VIEW, NO_FLOOR_POINT)
+    assert all(reason.startswith(known) for _, _, reason in log.no_pose)
+    p = log.trajectory.positions
+    assert p[:, :, 2].min() > -0.05  # floor constraint
+    sacrum_z = p[:, SACRUM, 2]
+    assert np.mean((sacrum_z > 0.75) & (sacrum_z < 1.1)) > 0.9  # measured 0.91-0.97 m

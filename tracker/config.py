@@ -221,19 +221,21 @@ class InitConfig(_Model):
 class HeadingCheckConfig(_Model):
     """Walking-direction check of the heading (a silhouette looks alike from front and back).
 
-    When the body origin has moved faster than ``min_speed_m_s`` over the last ``frames`` frames
-    in a direction more than ``max_angle_deg`` away from the estimated heading, the initial
+    When the body origin has moved faster than ``min_speed_m_s`` (least-squares velocity over
+    the last ``window_s`` seconds, at least ``min_frames`` estimates) in a direction more than
+    ``max_angle_deg`` away from the estimated heading, the initial
     search is re-run with headings within ``span_deg`` of the walking direction at the current
     position; its result replaces the track when it weighs at least ``accept_ratio`` times the
     current estimate. People seldom walk backwards.
     """
 
     enabled: bool = True
-    frames: Annotated[int, Field(ge=2, le=100)] = 4
+    window_s: Annotated[float, Field(gt=0, le=10)] = 0.3
+    min_frames: Annotated[int, Field(ge=2, le=1000)] = 4
     min_speed_m_s: Annotated[float, Field(ge=0, le=5)] = 0.35
     max_angle_deg: Annotated[float, Field(ge=0, le=180)] = 110.0
     span_deg: Annotated[float, Field(ge=0, le=180)] = 40.0
-    accept_ratio: Annotated[float, Field(ge=0, le=2)] = 0.85
+    accept_ratio: Annotated[float, Field(ge=0, le=2)] = 0.95
 
 
 class LegSwapConfig(_Model):
@@ -286,6 +288,15 @@ class TrackerConfig(_Model):
             "and static mode without background images falls back to mog2"
         ),
     ] = Field(default_factory=SegmentationConfig)
+    floor: Annotated[
+        Literal["above", "contact", "off"],
+        Field(
+            description="Floor constraint on each estimate (root height moved, pose re-weighed): "
+            "above = no key point below the floor; contact = the lowest key point on the floor "
+            "(someone standing, walking or lying, not jumping); off"
+        ),
+    ] = "above"
+    floor_tolerance_m: Annotated[float, Field(ge=0, le=0.5)] = 0.02
     min_silhouette_px: Annotated[
         int,
         Field(

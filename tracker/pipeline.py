@@ -264,7 +264,7 @@ class Tracker:
                     pose, weight, note = flipped
                     status = "reinitialised"
                     notes.append(note)
-        joints = np.asarray(self.body.forward(pose[None]))[0]
+        pose, weight, joints = self._floor_constraint(pose, weight)
         self._remember(pose, time_s, dt, continuous=status == "tracked")
         for n in notes:
             log.info("frame %d: %s", frame_index, n)
@@ -348,6 +348,35 @@ class Tracker:
         log.debug("legs swapped: weight %.3f -> %.3f", weight, w[k])
         return cand[k].copy(), float(w[k])
 
+    def _floor_constraint(
+        self, pose: np.ndarray, weight: float
+    ) -> tuple[np.ndarray, float, np.ndarray]:
+        """Move the root height so the body respects the floor (``config.floor``).
+
+        Returns the pose, its weight (re-weighed when moved) and its key points (19, 3). The
+        filter's particles get the same root, as after an origin search.
+        """
+        joints = np.asarray(self.body.forward(pose[None]))[0]
+        mode = self.config.floor
+        if mode == "off":
+            return pose, weight, joints
+        low = float(joints[:, 2].min())
+        tol = self.config.floor_tolerance_m
+        if mode == "above":
+            shift = -low if low < -tol else 0.0
+        else:  # contact
+            shift = -low if abs(low) > tol else 0.0
+        if shift == 0.0:
+            return pose, weight, joints
+        moved = pose.copy()
+        moved[DOF["root_z"]] += shift
+        self.filter.clamp(moved[None])
+        joints = np.asarray(self.body.forward(moved[None]))[0]
+        with _single_thread():
+            weight = float(np.asarray(self._lik.weights(moved[None]))[0])
+        self.filter.set_root(moved[:6])
+        return moved, weight, joints
+
     def _check_heading(
         self, pose: np.ndarray, weight: float, masks: list[np.ndarray], dt: float, time_s: float
     ) -> tuple[np.ndarray, float, str] | None:
@@ -355,16 +384,16 @@ class Tracker:
         hc = self.config.heading_check
         if not hc.enabled:
             return None
-        path = [*self._path, (float(time_s), float(pose[0]), float(pose[1]))][-hc.frames :]
-        if len(path) < hc.frames:
+        path = np.array([*self._path, (float(time_s), float(pose[0]), float(pose[1]))])
+        path = path[path[:, 0] >= time_s - hc.window_s - 1e-9]
+        if path.shape[0] < hc.min_frames or path[-1, 0] - path[0, 0] < 0.5 * hc.window_s:
             return None
-        (t0, x0, y0), (t1, x1, y1) = path[0], path[-1]
-        if t1 <= t0:
+        # Least-squares velocity over the window: robust to the jitter of single estimates.
+        t = path[:, 0] - path[:, 0].mean()
+        v = (t @ (path[:, 1:] - path[:, 1:].mean(axis=0))) / (t @ t)
+        if np.hypot(*v) < hc.min_speed_m_s:
             return None
-        d = np.array([x1 - x0, y1 - y0])
-        if np.hypot(*d) / (t1 - t0) < hc.min_speed_m_s:
-            return None
-        travel = float(np.arctan2(d[1], d[0]))
+        travel = float(np.arctan2(v[1], v[0]))
         off = float(np.degrees(abs(wrap_angle(pose[DOF["root_yaw"]] - travel))))
         if off <= hc.max_angle_deg:
             return None
