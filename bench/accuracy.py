@@ -37,7 +37,8 @@ Run::
         --filters ipf --max-frames 30 --overlays /tmp/overlays --out /tmp/RESULTS.md
 
 ``--filters`` also accepts the non-default variants ``ipf-velocity`` (``ipf.interval_centre =
-velocity``) and ``ipf-wide`` (``ipf.interval_deg = 30``) for experiments.
+velocity``), ``ipf-wide`` (``ipf.interval_deg = 30``) and ``ipf-contact`` (``floor =
+contact``) for experiments.
 
 View specs: ``side``, ``oblique``, ``frontal``, several joined by ``+`` (one camera each, e.g.
 ``side+frontal``), optionally ``@table`` or ``@sofa`` for an occluder in front of the first
@@ -131,6 +132,7 @@ FILTER_VARIANTS: dict[str, dict] = {
     "condensation": {"filter": "condensation"},
     "ipf-velocity": {"filter": "ipf", "ipf": {"interval_centre": "velocity"}},
     "ipf-wide": {"filter": "ipf", "ipf": {"interval_deg": 30.0}},
+    "ipf-contact": {"filter": "ipf", "floor": "contact"},
 }
 ALL_FILTERS = tuple(FILTER_VARIANTS)
 VIEWS = ("side", "oblique", "frontal")
