@@ -119,7 +119,8 @@ def test_tracker_follows_lower_limbs(clip: dict, label: str, ipf: dict, bound_m:
 
 
 def test_tracker_on_an_independent_rendering() -> None:
-    """A clip of the scene synthesiser (its own mesh body, clothing, room, lighting, shadow)."""
+    """A clip of the scene synthesiser (its own mesh body, clothing, room, lighting, shadow),
+    three cameras."""
     from gaitwatch.sim.motion import procedural_walk
     from gaitwatch.sim.scene import SceneConfig
     from gaitwatch.sim.synth import build_scene, render_background, render_frames
@@ -129,9 +130,10 @@ def test_tracker_on_an_independent_rendering() -> None:
         height_m=1.70, speed_m_s=1.0, cadence_steps_min=105, distance_m=1.6, start=(0.0, 0.0)
     )
     scene = build_scene(
-        walk, SceneConfig(image_size=SIZE, fps=FPS, views=["side", "oblique"], seed=0)
+        walk,
+        SceneConfig(image_size=SIZE, fps=FPS, views=["side", "oblique", "frontal"], seed=0),
     )
-    bgs = [np.ascontiguousarray(render_background(scene, i)[..., ::-1]) for i in range(2)]
+    bgs = [np.ascontiguousarray(render_background(scene, i)[..., ::-1]) for i in range(3)]
     tracker = Tracker(
         scene.cameras,
         TrackerConfig(),
@@ -146,9 +148,9 @@ def test_tracker_on_an_independent_rendering() -> None:
         joints.append(res.joints)
     err = _lower_limb_error(np.stack(joints), scene.truth.positions)
     print(f"independent rendering: lower-limb error mean {err.mean():.3f} m, max {err.max():.3f}")
-    # Measured (seeds 0-2): mean 0.13-0.17 m; the first frames face backwards (a silhouette
-    # looks alike from the front and the back) until the walking-direction check turns them.
-    assert err.mean() < 0.25
+    # Measured with tracker seeds 0-3: mean 0.08-0.20 m (two cameras: 0.15-0.23 m). The legs
+    # swap now and then (the method's intervals lag the knee in swing; see docs/tracker.md).
+    assert err.mean() < 0.30
 
 
 def _tracker_after_first_frame(clip: dict):
