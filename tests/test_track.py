@@ -362,6 +362,16 @@ def test_bad_options(clip: dict, tmp_path: Path, capsys, extra: list[str], needl
     assert rc == 2 and needle in err and "\n" not in err
 
 
+def test_background_size_must_match_camera(clip: dict, tmp_path: Path, capsys) -> None:
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), clip["bgs"][0][::2, ::2])
+    a = _args(clip, tmp_path / "p.mcap", bgs=False)
+    a += ["--background", str(small), "--background", str(clip["bg_files"][1])]
+    rc = main(a)
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and "small.png" in err and "image_size" in err and "\n" not in err
+
+
 def test_video_count_must_match_cameras(clip: dict, tmp_path: Path, capsys) -> None:
     rc = main(_args(clip, tmp_path / "p.mcap", folders=clip["folders"][:1], bgs=False))
     assert rc == 2 and "one per camera" in capsys.readouterr().err
