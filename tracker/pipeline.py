@@ -92,23 +92,30 @@ class FrameResult:
 
 
 @contextmanager
-def _single_thread():
-    """Run small likelihood batches on one numba thread.
+def _numba_threads(n: int):
+    """Run the numba kernels inside the block on ``n`` threads (restored afterwards).
 
-    The origin search weighs 12 batches of 7 poses per frame; spreading such batches over
-    threads costs more in synchronisation than it gains, badly so on a busy machine.
+    Small batches (the origin search weighs 12 batches of 7 poses per frame; forward kinematics
+    of single poses) lose more to thread synchronisation than they gain, and on a busy machine
+    each parallel call can wait milliseconds for the other thread to be scheduled; only the
+    large batches (the filter's thousands of particles, the initial search) use every thread.
     """
-    try:
-        import numba
-    except ImportError:  # pragma: no cover - numba is a dependency
+    import numba
+
+    old = numba.get_num_threads()
+    n = max(1, min(int(n), numba.config.NUMBA_NUM_THREADS))
+    if n == old:
         yield
         return
-    n = numba.get_num_threads()
-    numba.set_num_threads(1)
+    numba.set_num_threads(n)
     try:
         yield
     finally:
-        numba.set_num_threads(n)
+        numba.set_num_threads(old)
+
+
+def _single_thread():
+    return _numba_threads(1)
 
 
 class _CountingLikelihood:
@@ -196,6 +203,10 @@ class Tracker:
         if any(bg is None for bg in bgs) and seg_cfg.mode == "static":
             log.info("no background image for some cameras: learning the background (mog2)")
         self.dt_default = 1.0 / float(self.cameras[0].fps)
+        import numba
+
+        #: numba threads for the large batches (the others run on one thread).
+        self.threads = numba.get_num_threads()
         # track state
         self.prev_pose: np.ndarray | None = None
         self.prev_time: float | None = None
@@ -223,6 +234,12 @@ class Tracker:
         self, frame_index: int, time_s: float, segs: Sequence[Segmentation]
     ) -> FrameResult:
         """Track one time step from already segmented frames (one per camera)."""
+        with _single_thread():  # small batches; the large ones ask for every thread
+            return self._process(frame_index, time_s, segs)
+
+    def _process(
+        self, frame_index: int, time_s: float, segs: Sequence[Segmentation]
+    ) -> FrameResult:
         self._lik.count = 0
         notes: list[str] = []
         if all(s.empty for s in segs):
@@ -286,19 +303,21 @@ class Tracker:
         return self.dt_default
 
     def _initialise(self, masks: list[np.ndarray], dt: float) -> tuple[np.ndarray, float] | None:
-        res = initial_search(
-            self._lik,
-            self.body,
-            self.lik_cameras,
-            masks,
-            self.config,
-            limits=self.limits,
-            dt=dt,
-        )
+        with _numba_threads(self.threads):
+            res = initial_search(
+                self._lik,
+                self.body,
+                self.lik_cameras,
+                masks,
+                self.config,
+                limits=self.limits,
+                dt=dt,
+            )
         if res is None:
             return None
         self.filter.initialise(res.poses, res.weights)
-        est = self.filter.step(self._lik, dt)
+        with _numba_threads(self.threads):
+            est = self.filter.step(self._lik, dt)
         self.need_init = False
         self.low_count = 0
         self.velocity_xy = np.zeros(2)
@@ -321,7 +340,8 @@ class Tracker:
                     velocity_xy=self.velocity_xy,
                 )
             self.filter.set_root(origin.pose[:6])
-        est = self.filter.step(self._lik, dt)
+        with _numba_threads(self.threads):
+            est = self.filter.step(self._lik, dt)
         pose, weight = est.pose, est.weight
         swapped = self._check_leg_swap(weight)
         if swapped is not None:
@@ -398,22 +418,24 @@ class Tracker:
         if off <= hc.max_angle_deg:
             return None
         span = np.radians(hc.span_deg)
-        res = initial_search(
-            self._lik,
-            self.body,
-            self.lik_cameras,
-            masks,
-            self.config,
-            limits=self.limits,
-            dt=dt,
-            floor_xy=pose[:2].copy(),
-            headings=travel + np.linspace(-span, span, 9),
-        )
+        with _numba_threads(self.threads):
+            res = initial_search(
+                self._lik,
+                self.body,
+                self.lik_cameras,
+                masks,
+                self.config,
+                limits=self.limits,
+                dt=dt,
+                floor_xy=pose[:2].copy(),
+                headings=travel + np.linspace(-span, span, 9),
+            )
         self._path = []
         if res is None or res.best_weight < hc.accept_ratio * weight:
             return None
         self.filter.initialise(res.poses, res.weights)
-        est = self.filter.step(self._lik, dt)
+        with _numba_threads(self.threads):
+            est = self.filter.step(self._lik, dt)
         new, w = (
             (est.pose, est.weight) if est.weight >= res.best_weight else (res.best, res.best_weight)
         )
