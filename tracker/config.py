@@ -222,7 +222,8 @@ class HeadingCheckConfig(_Model):
     """Walking-direction check of the heading (a silhouette looks alike from front and back).
 
     When the body origin has moved faster than ``min_speed_m_s`` (least-squares velocity over
-    the last ``window_s`` seconds, at least ``min_frames`` estimates) in a direction more than
+    the last ``window_s`` seconds, at least ``min_frames`` estimates, along a path straight
+    enough: ``min_straightness``; at most one check per ``cooldown_s``) in a direction more than
     ``max_angle_deg`` away from the estimated heading, the initial
     search is re-run with headings within ``span_deg`` of the walking direction at the current
     position; its result replaces the track when it weighs at least ``accept_ratio`` times the
@@ -230,12 +231,18 @@ class HeadingCheckConfig(_Model):
     """
 
     enabled: bool = True
-    window_s: Annotated[float, Field(gt=0, le=10)] = 0.3
+    window_s: Annotated[float, Field(gt=0, le=10)] = 0.4
     min_frames: Annotated[int, Field(ge=2, le=1000)] = 4
+    min_straightness: Annotated[
+        float, Field(ge=0, le=1, description="Net displacement / path length over the window")
+    ] = 0.7
+    cooldown_s: Annotated[
+        float, Field(ge=0, le=60, description="No new check for this long after one")
+    ] = 1.0
     min_speed_m_s: Annotated[float, Field(ge=0, le=5)] = 0.35
     max_angle_deg: Annotated[float, Field(ge=0, le=180)] = 110.0
     span_deg: Annotated[float, Field(ge=0, le=180)] = 40.0
-    accept_ratio: Annotated[float, Field(ge=0, le=2)] = 0.95
+    accept_ratio: Annotated[float, Field(ge=0, le=2)] = 0.85
 
 
 class LegSwapConfig(_Model):

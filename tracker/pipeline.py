@@ -214,6 +214,7 @@ class Tracker:
         self.low_count = 0
         self.need_init = True
         self._path: list[tuple[float, float, float]] = []  # (time, x, y) of recent estimates
+        self._heading_checked_until = -np.inf
 
     # -- public -----------------------------------------------------------------------------
     @property
@@ -404,6 +405,8 @@ class Tracker:
         hc = self.config.heading_check
         if not hc.enabled:
             return None
+        if time_s < self._heading_checked_until:
+            return None
         path = np.array([*self._path, (float(time_s), float(pose[0]), float(pose[1]))])
         path = path[path[:, 0] >= time_s - hc.window_s - 1e-9]
         if path.shape[0] < hc.min_frames or path[-1, 0] - path[0, 0] < 0.5 * hc.window_s:
@@ -412,6 +415,11 @@ class Tracker:
         t = path[:, 0] - path[:, 0].mean()
         v = (t @ (path[:, 1:] - path[:, 1:].mean(axis=0))) / (t @ t)
         if np.hypot(*v) < hc.min_speed_m_s:
+            return None
+        # A walk, not jitter: the net displacement is most of the distance travelled.
+        steps = np.hypot(*np.diff(path[:, 1:], axis=0).T).sum()
+        net = float(np.hypot(*(path[-1, 1:] - path[0, 1:])))
+        if net < hc.min_straightness * steps:
             return None
         travel = float(np.arctan2(v[1], v[0]))
         off = float(np.degrees(abs(wrap_angle(pose[DOF["root_yaw"]] - travel))))
@@ -431,6 +439,7 @@ class Tracker:
                 headings=travel + np.linspace(-span, span, 9),
             )
         self._path = []
+        self._heading_checked_until = time_s + hc.cooldown_s
         if res is None or res.best_weight < hc.accept_ratio * weight:
             return None
         self.filter.initialise(res.poses, res.weights)
