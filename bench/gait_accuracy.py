@@ -27,11 +27,11 @@ from pathlib import Path
 import numpy as np
 
 from gait.analysis import GaitConfig, analyse
-from gait.evaluation import add_noise, match_events, parameter_errors_pct, resample
+from gait.evaluation import add_noise, match_events, parameter_errors_pct
 from gait.kinematics import knee_indicators_series
 from gait.synthetic import synthetic_walk
 from gaitwatch.mocap import load_mocap, load_trc_with_grf, read_c3d_markers, read_mot
-from gaitwatch.trajectory import Trajectory
+from gaitwatch.trajectory import Trajectory, resample
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -100,22 +100,4 @@ def parameter_errors_pct(
 def add_noise(traj: Trajectory, sd_m: float, rng: np.random.Generator) -> Trajectory:
     """A copy with Gaussian noise of ``sd_m`` metres on every coordinate."""
     pos = traj.positions + rng.normal(0.0, sd_m, traj.positions.shape)
-    return Trajectory(
-        positions=pos,
-        times=traj.times.copy(),
-        frames=traj.frames.copy(),
-        fps=traj.fps,
-        source=traj.source,
-        events=list(traj.events),
-    )
-
-
-def resample(traj: Trajectory, fps: float) -> Trajectory:
-    """A copy linearly resampled to ``fps`` (NaN propagates to the neighbouring samples)."""
-    t = np.arange(traj.times[0], traj.times[-1] + 1e-9, 1.0 / fps)
-    flat = traj.positions.reshape(len(traj), -1)
-    out = np.empty((t.size, flat.shape[1]))
-    for c in range(flat.shape[1]):
-        out[:, c] = np.interp(t, traj.times, flat[:, c])
-    pos = out.reshape(t.size, *traj.positions.shape[1:])
-    return Trajectory(positions=pos, times=t, fps=fps, source=traj.source, events=list(traj.events))
+    return traj.with_positions(pos)

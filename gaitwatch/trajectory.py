@@ -86,6 +86,17 @@ class Trajectory:
     def duration_s(self) -> float:
         return float(self.times[-1] - self.times[0]) if len(self) else 0.0
 
+    def with_positions(self, positions: np.ndarray) -> Trajectory:
+        """A copy with other positions (same shape), the same frames, times, fps and events."""
+        return Trajectory(
+            positions=positions,
+            times=self.times.copy(),
+            frames=self.frames.copy(),
+            fps=self.fps,
+            source=self.source,
+            events=list(self.events),
+        )
+
     def estimated_fps(self) -> float:
         """The nominal fps if known, else the median frame rate from the time stamps."""
         if self.fps:
@@ -93,6 +104,42 @@ class Trajectory:
         if len(self) < 2:
             raise ValueError("cannot estimate a frame rate from fewer than two frames")
         return float(1.0 / np.median(np.diff(self.times)))
+
+
+def resample(traj: Trajectory, fps: float, max_frames: int | None = None) -> Trajectory:
+    """Interpolate key points linearly to ``fps`` frames per second.
+
+    The result starts at the first sample (``time_s`` = 0, frame 0) and ends at or before the
+    last; events are shifted to the new time origin and kept when inside the clip. A NaN key
+    point makes its neighbouring resampled values NaN.
+    """
+    if not fps > 0:
+        raise ValueError(f"fps must be positive, not {fps}")
+    if len(traj) < 2:
+        raise ValueError(f"{traj.source or 'trajectory'}: resampling needs at least two frames")
+    t0 = traj.times[0]
+    n = int(math.floor((traj.times[-1] - t0) * fps + 1e-9)) + 1
+    if max_frames is not None:
+        n = min(n, int(max_frames))
+    tn = np.arange(n) / fps
+    src_t = traj.times - t0
+    flat = traj.positions.reshape(len(traj), -1)
+    idx = np.clip(np.searchsorted(src_t, tn, side="right") - 1, 0, len(traj) - 2)
+    w = ((tn - src_t[idx]) / (src_t[idx + 1] - src_t[idx]))[:, None]
+    out = (1 - w) * flat[idx] + w * flat[idx + 1]
+    events = [
+        {**e, "time_s": float(e["time_s"] - t0)}
+        for e in traj.events
+        if 0 <= e["time_s"] - t0 <= tn[-1] + 1e-9
+    ]
+    return Trajectory(
+        positions=out.reshape(n, N_KEYPOINTS, 3),
+        times=tn,
+        frames=np.arange(n, dtype=np.int64),
+        fps=float(fps),
+        source=traj.source,
+        events=events,
+    )
 
 
 def write_joints_csv(traj: Trajectory, path: str | Path) -> None:

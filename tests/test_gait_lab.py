@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 
 from gait.analysis import GaitConfig, analyse
-from gait.evaluation import add_noise, match_events, parameter_errors_pct, resample
+from gait.evaluation import add_noise, match_events, parameter_errors_pct
 from gait.kinematics import knee_indicators_series
+from gaitwatch.trajectory import resample
 from tests.conftest import shared_file
 
 mocap = pytest.importorskip("gaitwatch.mocap", reason="gaitwatch.mocap readers not available")

@@ -50,6 +50,7 @@ from gaitwatch.conventions import (
 )
 from gaitwatch.errors import InputError
 from gaitwatch.trajectory import Trajectory
+from gaitwatch.trajectory import resample as resample_trajectory
 
 log = logging.getLogger(__name__)
 
@@ -438,50 +439,16 @@ def complete_for_render(traj: Trajectory) -> tuple[Trajectory, list[str]]:
         log.info("%s: synthesised key points %s", traj.source, ", ".join(synthesised))
     if not np.isfinite(pos).all():
         raise MotionError(f"{traj.source or 'motion'}: key points remain unknown after filling")
-    out = Trajectory(
-        positions=pos,
-        times=traj.times.copy(),
-        frames=traj.frames.copy(),
-        fps=traj.fps,
-        source=traj.source,
-        events=list(traj.events),
-    )
+    out = traj.with_positions(pos)
     return out, synthesised
 
 
 def resample(traj: Trajectory, fps: float, max_frames: int | None = None) -> Trajectory:
-    """Interpolate key points linearly to ``fps`` frames per second.
-
-    The result starts at the first sample (``time_s`` = 0, frame 0) and ends at or before the
-    last; events are shifted to the new time origin and kept when inside the clip.
-    """
-    if fps <= 0:
-        raise MotionError(f"fps must be positive, not {fps}")
-    if len(traj) < 2:
-        raise MotionError(f"{traj.source or 'motion'}: needs at least two frames")
-    t0 = traj.times[0]
-    n = int(math.floor((traj.times[-1] - t0) * fps + 1e-9)) + 1
-    if max_frames is not None:
-        n = min(n, int(max_frames))
-    tn = np.arange(n) / fps
-    src_t = traj.times - t0
-    flat = traj.positions.reshape(len(traj), -1)
-    idx = np.clip(np.searchsorted(src_t, tn, side="right") - 1, 0, len(traj) - 2)
-    w = ((tn - src_t[idx]) / (src_t[idx + 1] - src_t[idx]))[:, None]
-    out = (1 - w) * flat[idx] + w * flat[idx + 1]
-    events = [
-        {**e, "time_s": float(e["time_s"] - t0)}
-        for e in traj.events
-        if 0 <= e["time_s"] - t0 <= tn[-1] + 1e-9
-    ]
-    return Trajectory(
-        positions=out.reshape(n, N_KEYPOINTS, 3),
-        times=tn,
-        frames=np.arange(n, dtype=np.int64),
-        fps=float(fps),
-        source=traj.source,
-        events=events,
-    )
+    """:func:`gaitwatch.trajectory.resample`, with a :class:`MotionError` for a bad request."""
+    try:
+        return resample_trajectory(traj, fps, max_frames)
+    except ValueError as err:
+        raise MotionError(str(err)) from None
 
 
 def walking_direction(traj: Trajectory) -> np.ndarray | None:
@@ -516,14 +483,7 @@ def place_on_path(
     s0 = traj.positions[0, SACRUM].copy()
     s0[2] = 0
     pos = (traj.positions - s0) @ Rz.T + np.array([start_xy[0], start_xy[1], 0.0])
-    return Trajectory(
-        positions=pos,
-        times=traj.times.copy(),
-        frames=traj.frames.copy(),
-        fps=traj.fps,
-        source=traj.source,
-        events=list(traj.events),
-    )
+    return traj.with_positions(pos)
 
 
 def scale_to_stature(traj: Trajectory, height_m: float) -> Trajectory:
