@@ -100,10 +100,41 @@ class IPFConfig(_Model):
             description="Centre of each L interval: the particle's value (the method) or its "
             "value moved by the damped velocity of the estimate's L DOFs over the last frame"
         ),
-    ] = "value"
+    ] = "velocity"
     velocity_damping: Annotated[
         float, Field(ge=0, le=1, description="Factor on the velocity for interval_centre=velocity")
     ] = 0.7
+    adaptive_width: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=10,
+            description="Widen each L interval to this factor times the L DOF's change over the "
+            "last frame (the observed joint speed); interval_deg stays the minimum. 0: off",
+        ),
+    ] = 2.0
+    max_interval_deg: Annotated[
+        float, Field(gt=0, le=180, description="Upper bound of an adaptively widened interval")
+    ] = 60.0
+    refine_share: Annotated[
+        float,
+        Field(
+            ge=0,
+            lt=1,
+            description="Coarse-to-fine: share of the M groups spent on a second, finer pass "
+            "around the heaviest distinct particles of the first (same total evaluations). "
+            "0: one pass (the method)",
+        ),
+    ] = 0.5
+    coarse_factor: Annotated[
+        float,
+        Field(
+            ge=1,
+            le=10,
+            description="With refine_share > 0: the first pass's intervals are this many times "
+            "wider, the second pass's are the first pass's grid spacing",
+        ),
+    ] = 2.0
     factored: Annotated[
         bool,
         Field(description="Use the likelihood's left/right-leg factorisation when L allows it"),
@@ -199,6 +230,17 @@ class OriginSearchConfig(_Model):
         float,
         Field(ge=0, le=1, description="Constant-velocity prediction of x, y: 0 off, 1 full"),
     ] = 0.8
+    after_filter: Annotated[
+        bool,
+        Field(
+            description="Search the origin again after the body-part filter, holding the new "
+            "legs (the sacrum estimate depends on them); adopted when it weighs more"
+        ),
+    ] = True
+    after_filter_levels: Annotated[int, Field(ge=1, le=6)] = 1
+    after_filter_range_scale: Annotated[
+        float, Field(gt=0, le=4, description="Factor on the ranges of the second search")
+    ] = 0.5
 
 
 class InitConfig(_Model):
@@ -216,6 +258,23 @@ class InitConfig(_Model):
         int, Field(ge=0, le=50, description="Best candidates refined by the origin search")
     ] = 4
     max_candidates: Annotated[int, Field(ge=10, le=1_000_000)] = 20_000
+    girths: Annotated[
+        tuple[float, ...],
+        Field(
+            min_length=1,
+            max_length=12,
+            description="Body girth factors tried at the first initialisation (the one whose "
+            "best configuration weighs most is kept for the rest of the footage); one value: "
+            "fixed girth",
+        ),
+    ] = (0.9, 1.0, 1.15, 1.3)
+
+    @field_validator("girths")
+    @classmethod
+    def _girths(cls, v: tuple[float, ...]) -> tuple[float, ...]:
+        if any(not 0.5 <= g <= 2.0 for g in v):
+            raise ValueError("girths must be within 0.5..2.0")
+        return v
 
 
 class HeadingCheckConfig(_Model):

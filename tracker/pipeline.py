@@ -215,6 +215,12 @@ class Tracker:
         self.need_init = True
         self._path: list[tuple[float, float, float]] = []  # (time, x, y) of recent estimates
         self._heading_checked_until = -np.inf
+        from tracker.body import BodyModel
+
+        # Girth estimated at the first initialisation when the likelihood uses a BodyModel.
+        self._estimate_girth = type(self.body) is BodyModel and (
+            getattr(self.likelihood, "body", None) is self.body
+        )
 
     # -- public -----------------------------------------------------------------------------
     @property
@@ -303,19 +309,37 @@ class Tracker:
             return float(time_s - self.prev_time)
         return self.dt_default
 
+    def _set_body(self, body) -> None:
+        self.body = body
+        self.likelihood.body = body
+
     def _initialise(self, masks: list[np.ndarray], dt: float) -> tuple[np.ndarray, float] | None:
-        with _numba_threads(self.threads):
-            res = initial_search(
-                self._lik,
-                self.body,
-                self.lik_cameras,
-                masks,
-                self.config,
-                limits=self.limits,
-                dt=dt,
-            )
-        if res is None:
-            return None
+        girths = self.config.init.girths
+        estimate = self._estimate_girth and len(girths) > 1
+        best = None
+        for g in girths if estimate else (None,):
+            if g is not None:
+                self._set_body(type(self.body)(height_m=self.body.height_m, girth=g))
+            with _numba_threads(self.threads):
+                res = initial_search(
+                    self._lik,
+                    self.body,
+                    self.lik_cameras,
+                    masks,
+                    self.config,
+                    limits=self.limits,
+                    dt=dt,
+                )
+            if res is None:
+                return None
+            if best is None or res.best_weight > best[1].best_weight:
+                best = (self.body, res)
+        assert best is not None
+        body, res = best
+        if estimate:
+            self._set_body(body)
+            self._estimate_girth = False
+            log.info("body girth %.2f (of %s) fits the silhouettes best", body.girth, girths)
         self.filter.initialise(res.poses, res.weights)
         with _numba_threads(self.threads):
             est = self.filter.step(self._lik, dt)
@@ -347,7 +371,29 @@ class Tracker:
         swapped = self._check_leg_swap(weight)
         if swapped is not None:
             pose, weight = swapped
+        if c.origin.enabled and c.origin.after_filter:
+            pose, weight = self._refine_origin(pose, weight, dt)
         return pose, weight
+
+    def _refine_origin(
+        self, pose: np.ndarray, weight: float, dt: float
+    ) -> tuple[np.ndarray, float]:
+        """Search the origin again holding the filter's new body parts; adopt if heavier."""
+        c = self.config
+        with _single_thread():
+            res = search_origin(
+                self._lik,
+                pose,
+                c.origin.model_copy(update={"levels": c.origin.after_filter_levels}),
+                limits=self.limits,
+                dt=dt,
+                reference_dt=c.reference_dt_s,
+                range_scale=c.origin.after_filter_range_scale,
+            )
+        if not res.weight > weight:
+            return pose, weight
+        self.filter.inject(res.pose[None], np.array([res.weight]))
+        return res.pose.copy(), float(res.weight)
 
     def _check_leg_swap(self, weight: float) -> tuple[np.ndarray, float] | None:
         """Weigh the heaviest particles with their legs exchanged; adopt a heavier one."""
@@ -365,7 +411,7 @@ class Tracker:
         k = int(np.argmax(w))
         if not w[k] > weight:
             return None
-        f.initialise(np.concatenate([cand, f.particles]), np.concatenate([w, f.weights]))
+        f.inject(cand, w, reset_motion=True)
         log.debug("legs swapped: weight %.3f -> %.3f", weight, w[k])
         return cand[k].copy(), float(w[k])
 

@@ -182,6 +182,16 @@ class Filter(ABC):
         self.particles = self.clamp(poses.copy())
         self.weights = weights.copy()
 
+    def inject(self, poses: np.ndarray, weights: np.ndarray, *, reset_motion: bool = False) -> None:
+        """Add weighed poses (K, 31) to the current set (e.g. a refined or leg-swapped estimate).
+
+        Unlike :meth:`initialise` the filter keeps its motion history, unless ``reset_motion``
+        (the added poses are not a continuation of the previous estimates, e.g. swapped legs).
+        """
+        poses = self.clamp(np.atleast_2d(np.asarray(poses, dtype=np.float64)).copy())
+        self.particles = np.concatenate([poses, self.particles])
+        self.weights = np.concatenate([np.asarray(weights, dtype=np.float64), self.weights])
+
     @property
     def initialised(self) -> bool:
         return self.particles.shape[0] > 0

@@ -9,11 +9,23 @@ Each frame:
    per kept particle, shared by its group), then L is replaced by a deterministic grid of q values
    per DOF inside an interval of width ``w * dt / 0.05`` around its value (shifted to lie inside
    the joint limits, so the q values stay distinct and legal), giving I = q^n neighbours per kept
-   particle, N = M * I particles. Every particle is clamped to the joint limits. (Option, off by
-   default: ``interval_centre="velocity"`` moves the interval centres by the damped change of
-   the estimate's L values over the last frame, so that fast swing phases are not limited to
-   ``w / 2`` per frame.)
+   particle, N = M * I particles. Every particle is clamped to the joint limits.
 3. **Measure** — weigh every particle; the estimate is the heaviest.
+
+Defaults that go beyond the method as published (each can be switched back, see
+``docs/tracker.md``):
+
+* ``interval_centre="velocity"``: the interval centres move by the damped change of the
+  estimate's L values over the last frame (a constant-velocity prediction, not learned dynamics),
+  so that fast swing phases are not limited to ``w / 2`` per frame (``"value"``: the method).
+* ``adaptive_width``: an interval is widened to ``adaptive_width`` times the DOF's change over the
+  last frame (the observed joint speed), never narrower than ``interval_deg`` and never wider
+  than ``max_interval_deg`` (0: fixed widths, the method).
+* ``refine_share``: coarse-to-fine within the same budget. The first pass spends
+  ``M1 = M - M2`` groups on intervals ``coarse_factor`` times wider; the second pass spends
+  ``M2 = round(refine_share * M)`` groups on the M2 heaviest distinct particles of the first pass
+  with intervals one first-pass grid step wide (half the noise on R). Still N = M * I evaluations
+  (0: one pass, the method).
 
 Structure exploited where exact: the I particles of a group share R, so they share the upper body
 and pelvis, and (when L holds only leg DOFs) the left-leg and right-leg variants combine
@@ -93,9 +105,31 @@ class IntervalParticleFilter(Filter):
             idx = np.resize(idx, self.M)
         return self.particles[idx].copy()
 
-    def interval_values(self, centres: np.ndarray, dt: float) -> np.ndarray:
-        """Grid values (M, n, q) of the L DOFs around ``centres`` (M, n), inside the limits."""
-        w = self.widths * (dt / self.reference_dt)  # (n,)
+    def interval_widths(self, dt: float) -> np.ndarray:
+        """Interval width (n,) of every L DOF at frame interval ``dt``, radians.
+
+        ``interval_deg`` scaled with ``dt / 0.05``, widened to ``adaptive_width`` times the
+        DOF's change over the last frame (scaled to ``dt``), at most ``max_interval_deg``
+        (scaled), never narrower than the scaled ``interval_deg``.
+        """
+        scale = dt / self.reference_dt
+        w = self.widths * scale
+        c = self.config
+        if c.adaptive_width > 0 and len(self._history) >= 2:
+            change = np.abs(self._history[-1] - self._history[-2]) * (dt / self._last_dt)
+            cap = np.radians(c.max_interval_deg) * scale
+            w = np.maximum(w, np.minimum(c.adaptive_width * change, np.maximum(cap, w)))
+        return w
+
+    def interval_values(
+        self, centres: np.ndarray, dt: float, widths: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Grid values (M, n, q) of the L DOFs around ``centres`` (M, n), inside the limits.
+
+        ``widths`` (n,) in radians at this ``dt``; default ``interval_deg`` scaled with
+        ``dt / 0.05``.
+        """
+        w = self.widths * (dt / self.reference_dt) if widths is None else np.asarray(widths)
         lo, hi = self.low[self.L], self.high[self.L]
         w = np.minimum(w, hi - lo)
         offsets = np.linspace(-0.5, 0.5, self.q) if self.q > 1 else np.zeros(1)
@@ -107,6 +141,14 @@ class IntervalParticleFilter(Filter):
         super().initialise(poses, weights)
         self._history = []
 
+    def inject(self, poses: np.ndarray, weights: np.ndarray, *, reset_motion: bool = False) -> None:
+        super().inject(poses, weights, reset_motion=reset_motion)
+        best = self.particles[int(np.argmax(self.weights)), self.L].copy()
+        if reset_motion or not self._history:
+            self._history = [best]
+        else:
+            self._history[-1] = best
+
     def velocity_shift(self, dt: float) -> np.ndarray:
         """Shift (n,) of the interval centres: 0 for ``interval_centre="value"`` (the method)."""
         if self.config.interval_centre != "velocity" or len(self._history) < 2:
@@ -114,14 +156,37 @@ class IntervalParticleFilter(Filter):
         prev, last, last_dt = self._history[-2], self._history[-1], self._last_dt
         return self.config.velocity_damping * (last - prev) * (dt / last_dt)
 
-    def predict(self, kept: np.ndarray, dt: float) -> np.ndarray:
-        """The N = M * I predicted particles (M * I, 31) from the kept ones (M, 31)."""
+    def predict(
+        self,
+        kept: np.ndarray,
+        dt: float,
+        *,
+        widths: np.ndarray | None = None,
+        shift: np.ndarray | None = None,
+        sigma_factor: float = 1.0,
+    ) -> np.ndarray:
+        """The predicted particles (m * I, 31) from kept ones (m, 31).
+
+        Parameters
+        ----------
+        kept : ndarray, shape (m, 31)
+        dt : float
+            Frame interval, s.
+        widths : ndarray, shape (n,), optional
+            Interval widths in radians (default: ``interval_deg`` scaled with ``dt / 0.05``).
+        shift : ndarray, shape (n,), optional
+            Shift of the interval centres (default :meth:`velocity_shift`).
+        sigma_factor : float
+            Factor on the white noise on R (0: none).
+        """
         m = kept.shape[0]
-        base = self._diffuse(kept, self.sigma * (dt / self.reference_dt))
+        base = kept.copy()
+        if sigma_factor > 0:
+            base = self._diffuse(base, self.sigma * (sigma_factor * dt / self.reference_dt))
         self.clamp(base)
-        centres = base[:, self.L] + self.velocity_shift(dt)
-        vals = self.interval_values(centres, dt)  # (M, n, q)
-        out = np.repeat(base[:, None, :], self.I, axis=1)  # (M, I, 31)
+        centres = base[:, self.L] + (self.velocity_shift(dt) if shift is None else shift)
+        vals = self.interval_values(centres, dt, widths)  # (m, n, q)
+        out = np.repeat(base[:, None, :], self.I, axis=1)  # (m, I, 31)
         for k, dof in enumerate(self.L):
             out[:, :, dof] = vals[:, k, self.combos[:, k]]
         # Inside the limits by construction: base is clamped, the grid values are clipped.
@@ -151,11 +216,38 @@ class IntervalParticleFilter(Filter):
             return w.reshape(m * a * b)
         return self._weigh(likelihood, particles)
 
+    def pass_sizes(self) -> tuple[int, int]:
+        """Groups (M1, M2) of the coarse and the fine pass; M2 = 0 for one pass."""
+        m2 = int(round(self.config.refine_share * self.M)) if self.M >= 2 else 0
+        m2 = min(max(m2, 0), self.M - 1)
+        return self.M - m2, m2
+
     def _step(self, likelihood: Likelihood, dt: float) -> None:
         self.last_evaluations = 0
         kept = self.select()
-        particles = self.predict(kept, dt)
-        self.weights = self.measure(likelihood, particles)
+        m1, m2 = self.pass_sizes()
+        widths = self.interval_widths(dt)
+        if m2 == 0:
+            particles = self.predict(kept, dt, widths=widths)
+            weights = self.measure(likelihood, particles)
+        else:
+            coarse = widths * self.config.coarse_factor
+            p1 = self.predict(kept[:m1], dt, widths=coarse)
+            w1 = self.measure(likelihood, p1)
+            # Fine pass: around the heaviest distinct particles of the coarse pass, one coarse
+            # grid step wide, centred on their values (they already include the velocity);
+            # half the noise on R, so that no particle repeats its parent.
+            idx = select_distinct(p1, w1, m2)
+            if idx.size < m2:
+                idx = np.resize(idx, m2)
+            fine = coarse / (self.q - 1) if self.q > 1 else coarse
+            p2 = self.predict(
+                p1[idx], dt, widths=fine, shift=np.zeros(len(self.L)), sigma_factor=0.5
+            )
+            w2 = self.measure(likelihood, p2)
+            particles = np.concatenate([p1, p2])
+            weights = np.concatenate([w1, w2])
+        self.weights = weights
         self.particles = particles
         best = particles[int(np.argmax(self.weights)), self.L]
         self._history = [*self._history[-1:], best.copy()]
