@@ -90,6 +90,12 @@ class Settings(BaseSettings):
     )
     host: str = Field("127.0.0.1", title="Host", description="Address the API listens on.")
     port: int = Field(8000, ge=1, le=65535, title="Port", description="TCP port of the API.")
+    public_docs: bool = Field(
+        False,
+        title="Public API documentation",
+        description="Serve the OpenAPI document and the interactive /docs page without a key. "
+        "Off by default: only /healthz is open, and /openapi.json needs a valid key.",
+    )
     auto_upgrade: bool = Field(
         False,
         title="Upgrade schema on start",

@@ -197,10 +197,26 @@ def _broken_engine():
 
 
 def test_openapi_documents_errors_and_examples(world: World) -> None:
-    spec = world.client.get("/openapi.json").json()
+    spec = world.client.get("/openapi.json", headers=world.care_a).json()
     trends = spec["paths"]["/residents/{resident_id}/trends"]["get"]
     assert {"401", "404", "422"} <= set(trends["responses"])
     schemas = spec["components"]["schemas"]
     assert "ErrorBody" in schemas and "examples" in schemas["ResidentCreate"]
     params = {p["name"] for p in trends["parameters"]}
     assert {"metric", "from", "to", "bucket"} <= params
+
+
+def test_public_docs_setting_serves_the_schema_without_a_key(tmp_path) -> None:
+    from fastapi.testclient import TestClient
+
+    from service.api.app import create_app
+    from service.config import Settings
+    from service.db.migrate import upgrade
+
+    url = f"sqlite:///{tmp_path / 'db.sqlite3'}"
+    upgrade(url)
+    app = create_app(Settings(database_url=url, data_dir=tmp_path, public_docs=True))
+    with TestClient(app) as client:
+        assert client.get("/openapi.json").status_code == 200
+        assert client.get("/docs").status_code == 200
+        assert client.get("/residents").status_code == 401

@@ -102,12 +102,18 @@ def create_app(settings: Settings | None = None, *, check_schema: bool = True) -
         audit_buffer.close()  # write the queued read-audit entries
         auth_engine.dispose()
 
+    public = settings.public_docs
     app = FastAPI(
         lifespan=lifespan,
         title="gaitwatch",
         version=__version__,
         description=DESCRIPTION,
         openapi_tags=TAGS,
+        # Nobody without a key reads anything but /healthz: the schema is served by
+        # system.openapi_document behind a key unless the documentation is made public.
+        openapi_url="/openapi.json" if public else None,
+        docs_url="/docs" if public else None,
+        redoc_url="/redoc" if public else None,
     )
     app.state.settings = settings
     app.state.engine = engine

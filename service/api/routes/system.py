@@ -1,4 +1,5 @@
-"""``/healthz`` (no key needed) and ``/metrics`` (Prometheus, admin keys)."""
+"""``/healthz`` (no key needed), ``/metrics`` (Prometheus, admin keys) and the OpenAPI document
+(any key, unless the settings make the documentation public)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from fastapi import APIRouter, Request
 from fastapi.responses import JSONResponse, PlainTextResponse
 from sqlalchemy import func, select, text
 
-from service.api.deps import AdminDep, SessionDep
+from service.api.deps import AdminDep, PrincipalDep, SessionDep
 from service.api.errors import responses
 from service.api.schemas import HealthOut
 from service.db.migrate import current_revision
@@ -60,3 +61,9 @@ def metrics(request: Request, session: SessionDep, principal: AdminDep):
     }
     body = request.app.state.metrics.render({k: (h, float(v or 0)) for k, (h, v) in gauges.items()})
     return PlainTextResponse(body, media_type="text/plain; version=0.0.4; charset=utf-8")
+
+
+@router.get("/openapi.json", include_in_schema=False)
+def openapi_document(request: Request, principal: PrincipalDep) -> JSONResponse:
+    """The OpenAPI schema for key holders (the public route exists only with ``public_docs``)."""
+    return JSONResponse(request.app.openapi())
