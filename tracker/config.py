@@ -135,6 +135,15 @@ class IPFConfig(_Model):
             "wider, the second pass's are the first pass's grid spacing",
         ),
     ] = 2.0
+    max_per_group: Annotated[
+        int,
+        Field(
+            ge=0,
+            le=100_000,
+            description="Selection keeps at most this many particles with the same R values "
+            "(one group of the last frame) while others remain; 0: the M heaviest distinct",
+        ),
+    ] = 9
     factored: Annotated[
         bool,
         Field(description="Use the likelihood's left/right-leg factorisation when L allows it"),
@@ -281,17 +290,28 @@ class HeadingCheckConfig(_Model):
     """Walking-direction check of the heading (a silhouette looks alike from front and back).
 
     When the body origin has moved faster than ``min_speed_m_s`` (least-squares velocity over
-    the last ``window_s`` seconds, at least ``min_frames`` estimates, along a path straight
-    enough: ``min_straightness``; at most one check per ``cooldown_s``) in a direction more than
-    ``max_angle_deg`` away from the estimated heading, the initial
+    the last ``window_s`` seconds, at least ``min_frames`` estimates over ``min_span_s``, along
+    a path straight enough: ``min_straightness``; at most one check per ``cooldown_s``) in a
+    direction more than ``max_angle_deg`` away from the estimated heading, the initial
     search is re-run with headings within ``span_deg`` of the walking direction at the current
     position; its result replaces the track when it weighs at least ``accept_ratio`` times the
     current estimate. People seldom walk backwards.
     """
 
     enabled: bool = True
+    source: Annotated[
+        Literal["silhouette", "estimate"],
+        Field(
+            description="Path giving the walking direction: the silhouettes' floor point (the "
+            "bottom of each silhouette on the floor, median over cameras; independent of the "
+            "estimated heading) or the estimated body origin"
+        ),
+    ] = "estimate"
     window_s: Annotated[float, Field(gt=0, le=10)] = 0.4
-    min_frames: Annotated[int, Field(ge=2, le=1000)] = 4
+    min_frames: Annotated[int, Field(ge=2, le=1000)] = 3
+    min_span_s: Annotated[
+        float, Field(ge=0, le=10, description="The estimates must span at least this long")
+    ] = 0.1
     min_straightness: Annotated[
         float, Field(ge=0, le=1, description="Net displacement / path length over the window")
     ] = 0.7

@@ -40,7 +40,7 @@ from gaitwatch.conventions import SACRUM
 from tracker.config import TrackerConfig
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, wrap_angle
 from tracker.filters import Filter, make_filter, select_distinct
-from tracker.init import initial_search
+from tracker.init import floor_point, initial_search
 from tracker.origin import search_origin
 from tracker.segmentation import Segmentation, Segmenter, keep_blobs
 
@@ -213,7 +213,9 @@ class Tracker:
         self.velocity_xy = np.zeros(2)
         self.low_count = 0
         self.need_init = True
-        self._path: list[tuple[float, float, float]] = []  # (time, x, y) of recent estimates
+        # (time, x, y of the estimate, x, y of the silhouettes' floor point) of recent frames
+        self._path: list[tuple[float, float, float, float, float]] = []
+        self._floor_now = np.full(2, np.nan)
         self._heading_checked_until = -np.inf
         from tracker.body import BodyModel
 
@@ -256,6 +258,8 @@ class Tracker:
         if sum(int(m.sum()) for m in masks) < self.config.min_silhouette_px:
             return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW + " (silhouette too small)")
         self.likelihood.set_silhouettes(masks)
+        fp = floor_point(self.lik_cameras, masks)
+        self._floor_now = np.full(2, np.nan) if fp is None else np.asarray(fp, dtype=np.float64)
         dt = self._dt(time_s)
         if self.need_init:
             status = "initialised" if self.prev_time is None else "reinitialised"
@@ -453,9 +457,13 @@ class Tracker:
             return None
         if time_s < self._heading_checked_until:
             return None
-        path = np.array([*self._path, (float(time_s), float(pose[0]), float(pose[1]))])
+        path = np.array([*self._path, self._path_entry(time_s, pose)])
         path = path[path[:, 0] >= time_s - hc.window_s - 1e-9]
-        if path.shape[0] < hc.min_frames or path[-1, 0] - path[0, 0] < 0.5 * hc.window_s:
+        if hc.source == "silhouette":
+            path = path[np.isfinite(path[:, 3])][:, [0, 3, 4]]
+        else:
+            path = path[:, :3]
+        if path.shape[0] < hc.min_frames or path[-1, 0] - path[0, 0] < hc.min_span_s - 1e-9:
             return None
         # Least-squares velocity over the window: robust to the jitter of single estimates.
         t = path[:, 0] - path[:, 0].mean()
@@ -502,11 +510,15 @@ class Tracker:
             f"(weight {w:.3f}, was {weight:.3f})",
         )
 
+    def _path_entry(self, time_s: float, pose: np.ndarray) -> tuple[float, ...]:
+        f = self._floor_now
+        return (float(time_s), float(pose[0]), float(pose[1]), float(f[0]), float(f[1]))
+
     def _remember(self, pose: np.ndarray, time_s: float, dt: float, *, continuous: bool) -> None:
         if continuous:
-            self._path = [*self._path, (float(time_s), float(pose[0]), float(pose[1]))][-64:]
+            self._path = [*self._path, self._path_entry(time_s, pose)][-64:]
         else:
-            self._path = [(float(time_s), float(pose[0]), float(pose[1]))]
+            self._path = [self._path_entry(time_s, pose)]
         if not continuous or self.prev_pose is None:
             self.velocity_xy = np.zeros(2)
         else:

@@ -99,8 +99,26 @@ class IntervalParticleFilter(Filter):
 
     # -- steps ----------------------------------------------------------------------------
     def select(self) -> np.ndarray:
-        """The M kept particles (M, 31): heaviest distinct first, cycled if fewer."""
-        idx = select_distinct(self.particles, self.weights, self.M)
+        """The M kept particles (M, 31): heaviest distinct first, cycled if fewer.
+
+        With ``max_per_group`` > 0, at most that many of them share the same R values (the same
+        group of the last frame) while other distinct particles remain (diversity).
+        """
+        cap = self.config.max_per_group
+        if cap > 0:
+            idx = select_distinct(self.particles, self.weights, self.M * cap)
+            r = np.ascontiguousarray(self.particles[idx][:, self.R])
+            rows = r.view(np.dtype((np.void, r.dtype.itemsize * r.shape[1]))).ravel()
+            _, group = np.unique(rows, return_inverse=True)
+            order = np.argsort(group, kind="stable")
+            g_sorted = group[order]
+            first = np.searchsorted(g_sorted, g_sorted, side="left")
+            rank = np.empty_like(group)
+            rank[order] = np.arange(group.size) - first  # rank inside its group, by weight
+            ok = rank < cap
+            idx = np.concatenate([idx[ok], idx[~ok]])[: self.M]
+        else:
+            idx = select_distinct(self.particles, self.weights, self.M)
         if idx.size < self.M:
             idx = np.resize(idx, self.M)
         return self.particles[idx].copy()
