@@ -36,9 +36,10 @@ Run::
     python3 bench/accuracy.py --recordings 07_06,rajagopal --views oblique,side+frontal \\
         --filters ipf --max-frames 30 --overlays /tmp/overlays --out /tmp/RESULTS.md
 
-``--filters`` also accepts the non-default variants ``ipf-velocity`` (``ipf.interval_centre =
-velocity``), ``ipf-wide`` (``ipf.interval_deg = 30``) and ``ipf-contact`` (``floor =
-contact``) for experiments.
+``--filters`` also accepts non-default variants for experiments: ``ipf-published`` (the method
+as published: intervals centred on the particle's value, fixed width, one pass, the M heaviest
+distinct particles kept), ``ipf-wide`` (``ipf.interval_deg = 30``) and ``ipf-contact``
+(``floor = contact``).
 
 View specs: ``side``, ``oblique``, ``frontal``, several joined by ``+`` (one camera each, e.g.
 ``side+frontal``), optionally ``@table`` or ``@sofa`` for an occluder in front of the first
@@ -130,7 +131,15 @@ FILTER_VARIANTS: dict[str, dict] = {
     "ipf": {"filter": "ipf"},
     "apf": {"filter": "apf"},
     "condensation": {"filter": "condensation"},
-    "ipf-velocity": {"filter": "ipf", "ipf": {"interval_centre": "velocity"}},
+    "ipf-published": {
+        "filter": "ipf",
+        "ipf": {
+            "interval_centre": "value",
+            "adaptive_width": 0.0,
+            "refine_share": 0.0,
+            "max_per_group": 0,
+        },
+    },
     "ipf-wide": {"filter": "ipf", "ipf": {"interval_deg": 30.0}},
     "ipf-contact": {"filter": "ipf", "floor": "contact"},
 }
