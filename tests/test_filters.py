@@ -252,3 +252,81 @@ def test_origin_search_recovers_offset_root() -> None:
     assert abs(np.degrees(res.pose[DOF["root_yaw"]]) - 30.0) < 2.0
     # body parts held fixed
     assert np.array_equal(res.pose[6:], start[6:])
+
+
+# -- IPF extensions (defaults beyond the published method; docs/tracker.md) -------------------
+METHOD = IPFConfig(
+    kept=9, interval_centre="value", adaptive_width=0, refine_share=0, max_per_group=0
+)
+
+
+def test_ipf_coarse_to_fine_spends_the_same_budget() -> None:
+    cfg = IPFConfig(kept=9, refine_share=0.5, coarse_factor=2.0)
+    f = IntervalParticleFilter(cfg, limits=LIMITS, rng=np.random.default_rng(0))
+    assert f.pass_sizes() == (5, 4)  # M2 = round(4.5) = 4
+    f.initialise(_standing()[None])
+    lik = ToyLikelihood(_truth(0.1))
+    f.step(lik, 0.05)
+    assert lik.evaluations == f.last_evaluations == 9 * 81 == f.particles.shape[0]
+    groups = f.particles.reshape(9, 81, N_DOF)
+    j = DOF["l_hip_flexion"]
+    # coarse groups span 2 x 10 deg (unless shifted at a limit), fine groups one coarse step
+    assert np.ptp(groups[0, :, j]) == pytest.approx(np.radians(20.0))
+    assert np.ptp(groups[-1, :, j]) == pytest.approx(np.radians(10.0))
+    # every fine group surrounds a particle of the coarse pass (its interval holds its L values)
+    coarse_l = f.particles[: 5 * 81][:, LEGS]
+    for g in groups[5:]:
+        lo, hi = g[:, LEGS].min(axis=0), g[:, LEGS].max(axis=0)
+        assert np.any(np.all((coarse_l >= lo - 1e-12) & (coarse_l <= hi + 1e-12), axis=1))
+    assert np.unique(f.particles, axis=0).shape[0] == 9 * 81
+
+
+def test_ipf_method_settings_make_one_pass() -> None:
+    f = IntervalParticleFilter(METHOD, limits=LIMITS, rng=np.random.default_rng(0))
+    assert f.pass_sizes() == (9, 0)
+
+
+def test_ipf_adaptive_width_follows_the_joint_speed() -> None:
+    cfg = IPFConfig(kept=9, adaptive_width=2.0, max_interval_deg=60.0)
+    f = IntervalParticleFilter(cfg, limits=LIMITS, rng=np.random.default_rng(0))
+    n = len(cfg.interesting)
+    base = np.radians(10.0)
+    assert np.allclose(f.interval_widths(0.05), base)  # no history yet
+    f._history = [np.zeros(n), np.radians([1.0, 8.0, 20.0, 40.0])]
+    f._last_dt = 0.05
+    w = np.degrees(f.interval_widths(0.05))
+    # at least 10 deg, twice the last change, at most 60 deg
+    assert w == pytest.approx([10.0, 16.0, 40.0, 60.0])
+    assert np.degrees(f.interval_widths(0.025)) == pytest.approx([5.0, 8.0, 20.0, 30.0])
+
+
+def test_ipf_selection_caps_particles_per_group() -> None:
+    f = IntervalParticleFilter(
+        IPFConfig(kept=9, max_per_group=3), limits=LIMITS, rng=np.random.default_rng(0)
+    )
+    f.initialise(np.repeat(_standing()[None], 2, axis=0))
+    lik = ToyLikelihood(_truth(0.05))
+    f.step(lik, 0.05)
+    kept = f.select()
+    r = [i for i in range(N_DOF) if i not in LEGS]
+    _, counts = np.unique(kept[:, r], axis=0, return_counts=True)
+    assert kept.shape == (9, N_DOF)
+    assert counts.max() <= 3
+    # without the cap the heaviest nine come from fewer groups
+    f.config = f.config.model_copy(update={"max_per_group": 0})
+    _, counts0 = np.unique(f.select()[:, r], axis=0, return_counts=True)
+    assert counts0.max() > 3
+
+
+def test_inject_keeps_the_motion_history() -> None:
+    f = make_filter("ipf", _small_config("ipf"), rng=np.random.default_rng(0))
+    f.initialise(_truth(0.0)[None])
+    for k in range(1, 3):
+        f.step(ToyLikelihood(_truth(0.05 * k)), 0.05)
+    assert len(f._history) == 2
+    better = _truth(0.1)
+    f.inject(better[None], np.array([10.0]))
+    assert len(f._history) == 2 and np.allclose(f._history[-1], better[f.L])
+    assert np.array_equal(f.estimate().pose, better)
+    f.inject(better[None], np.array([11.0]), reset_motion=True)
+    assert len(f._history) == 1

@@ -161,6 +161,45 @@ def test_tracker_on_an_independent_rendering() -> None:
     assert err.mean() < 0.15
 
 
+def test_girth_estimated_over_the_first_frames(clip: dict) -> None:
+    """A heavier person gets a heavier model; the girth is then fixed.
+
+    The silhouettes the likelihood sees are about 20 % larger than the model's own rendering
+    (segmentation clean-up at 160x120), so the estimate absorbs that too: it is compared between
+    a default and a heavy person rather than with the rendered girth.
+    """
+    from tracker.body import BodyModel
+    from tracker.likelihood import SilhouetteLikelihood
+    from tracker.pipeline import Tracker
+    from tracker.synthetic import render_clip
+
+    girths = (0.8, 0.9, 1.0, 1.15, 1.3, 1.5, 1.7)
+    config = TrackerConfig(ipf=IPFConfig(kept=9), init={"girths": girths, "girth_frames": 3})
+    found = []
+    for girth in (1.0, 1.4):
+        person = SilhouetteLikelihood(BodyModel(1.70, girth=girth), clip["cams"])
+        frames = list(render_clip(person, clip["poses"][:5], clip["bgs"], np.random.default_rng(1)))
+        tracker = Tracker(
+            clip["cams"], config, rng=np.random.default_rng(0), backgrounds=clip["bgs"]
+        )
+        assert tracker.body.girth == 1.0
+        seen = []
+        for i in range(5):
+            tracker.process(i, i / FPS, frames[i])
+            seen.append(tracker.body.girth)
+            assert tracker.likelihood.body is tracker.body
+        assert seen[2] == seen[3] == seen[4]  # fixed after girth_frames
+        found.append(seen[-1])
+    print(f"estimated girth: {found[0]} (person 1.0), {found[1]} (person 1.4)")
+    assert found[1] > found[0]
+    # one value: no estimation
+    fixed = TrackerConfig(ipf=IPFConfig(kept=9), init={"girths": (1.0,)})
+    tracker = Tracker(clip["cams"], fixed, rng=np.random.default_rng(0), backgrounds=clip["bgs"])
+    tracker.process(0, 0.0, frames[0])
+    tracker.process(1, 1 / FPS, frames[1])
+    assert tracker.body.girth == 1.0
+
+
 def _tracker_after_first_frame(clip: dict):
     from tracker.pipeline import Tracker
 

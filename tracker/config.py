@@ -273,10 +273,19 @@ class InitConfig(_Model):
             min_length=1,
             max_length=12,
             description="Body girth factors tried at the first initialisation (the one whose "
-            "best configuration weighs most is kept for the rest of the footage); one value: "
-            "fixed girth",
+            "best configuration weighs most starts) and scored over the first girth_frames "
+            "frames; the best is kept for the rest of the footage. One value: fixed girth",
         ),
     ] = (0.9, 1.0, 1.15, 1.3)
+    girth_frames: Annotated[
+        int,
+        Field(
+            ge=1,
+            le=1000,
+            description="Frames over which the girths are scored on the refined particles "
+            "(after the first initialisation's choice); then the girth is fixed",
+        ),
+    ] = 5
 
     @field_validator("girths")
     @classmethod

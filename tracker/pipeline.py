@@ -176,6 +176,11 @@ class Tracker:
         self.cameras = list(cameras)
         w, h = c.likelihood_size
         self.lik_cameras = [cam.scaled(w, h) for cam in self.cameras]
+        #: Girth estimated at the first initialisation when the tracker builds the body model
+        #: and the likelihood itself (config.init.girths).
+        self._estimate_girth = body is None and likelihood is None
+        self._girth_bodies: dict[float, object] = {}
+        self._girth_scores: dict[float, float] = {}
         if body is None:
             from tracker.body import BodyModel
 
@@ -217,12 +222,9 @@ class Tracker:
         self._path: list[tuple[float, float, float, float, float]] = []
         self._floor_now = np.full(2, np.nan)
         self._heading_checked_until = -np.inf
-        from tracker.body import BodyModel
-
-        # Girth estimated at the first initialisation when the likelihood uses a BodyModel.
-        self._estimate_girth = type(self.body) is BodyModel and (
-            getattr(self.likelihood, "body", None) is self.body
-        )
+        self._girth_frames_left = c.init.girth_frames
+        if self._estimate_girth:
+            self._girth_bodies[self.body.girth] = self.body
 
     # -- public -----------------------------------------------------------------------------
     @property
@@ -292,6 +294,8 @@ class Tracker:
                     pose, weight, note = flipped
                     status = "reinitialised"
                     notes.append(note)
+        if self._estimate_girth and len(self.config.init.girths) > 1:
+            self._update_girth(pose)
         pose, weight, joints = self._floor_constraint(pose, weight)
         self._remember(pose, time_s, dt, continuous=status == "tracked")
         for n in notes:
@@ -317,13 +321,42 @@ class Tracker:
         self.body = body
         self.likelihood.body = body
 
+    def _girth_body(self, girth: float):
+        if girth not in self._girth_bodies:
+            self._girth_bodies[girth] = type(self.body)(height_m=self.body.height_m, girth=girth)
+        return self._girth_bodies[girth]
+
+    def _update_girth(self, pose: np.ndarray) -> None:
+        """Score every girth on this frame's refined particles; keep the best so far.
+
+        Over the first ``init.girth_frames`` frames after the first initialisation, the heaviest
+        distinct particles and the estimate are weighed with each girth's body model; the girth
+        with the largest sum of best weights is used, then kept for the rest of the footage.
+        """
+        girths = self.config.init.girths
+        f = self.filter
+        idx = select_distinct(f.particles, f.weights, 9)
+        cand = np.concatenate([pose[None], f.particles[idx]])
+        current = self.body
+        with _single_thread():
+            for g in girths:
+                self._set_body(self._girth_body(g))
+                w = np.asarray(self._lik.weights(cand), dtype=np.float64)
+                self._girth_scores[g] = self._girth_scores.get(g, 0.0) + float(w.max())
+        best = max(girths, key=lambda g: self._girth_scores[g])
+        self._set_body(self._girth_body(best) if best != current.girth else current)
+        self._girth_frames_left -= 1
+        if self._girth_frames_left <= 0:
+            self._estimate_girth = False
+            log.info("body girth %.2f (of %s) fits the silhouettes best", best, girths)
+
     def _initialise(self, masks: list[np.ndarray], dt: float) -> tuple[np.ndarray, float] | None:
         girths = self.config.init.girths
-        estimate = self._estimate_girth and len(girths) > 1
+        estimate = self._estimate_girth and len(girths) > 1 and not self._girth_scores
         best = None
         for g in girths if estimate else (None,):
             if g is not None:
-                self._set_body(type(self.body)(height_m=self.body.height_m, girth=g))
+                self._set_body(self._girth_body(g))
             with _numba_threads(self.threads):
                 res = initial_search(
                     self._lik,
@@ -342,8 +375,6 @@ class Tracker:
         body, res = best
         if estimate:
             self._set_body(body)
-            self._estimate_girth = False
-            log.info("body girth %.2f (of %s) fits the silhouettes best", body.girth, girths)
         self.filter.initialise(res.poses, res.weights)
         with _numba_threads(self.threads):
             est = self.filter.step(self._lik, dt)
