@@ -11,7 +11,10 @@ its intervals).
 Defaults follow issue 3: IPF with M = 81 kept particles, q = 3 grid values over an interval of
 10 degrees on the n = 4 "interesting" DOFs (both hips' and both knees' flexion), i.e. 6561
 particles per frame; the baselines (Condensation, annealed particle filter) get the same number of
-likelihood evaluations per frame.
+likelihood evaluations per frame. The IPF's defaults add, within that budget, velocity-centred and
+adaptively widened intervals, a coarse-to-fine second pass and a diverse selection
+(``interval_centre="value"``, ``adaptive_width=0``, ``refine_share=0``, ``max_per_group=0``
+restore the published method; see ``docs/tracker.md``).
 """
 
 from __future__ import annotations

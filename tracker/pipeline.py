@@ -11,9 +11,12 @@ I/O: the caller decodes video and writes the pose log) and returns a :class:`Fra
    projected predicted sacrum; without a track, the largest blob. Blobs lying mostly inside the
    predicted model (a person split in two by the segmentation) are kept with it. Logged.
 3. **Initialisation** (first frame, after nobody was in view, after loss): the exhaustive search of
-   :mod:`tracker.init` seeds the filter, followed by one filter step.
+   :mod:`tracker.init` seeds the filter, followed by one filter step. At the first one the
+   search runs once per ``config.init.girths`` value; the girth is then scored on the refined
+   particles over ``init.girth_frames`` frames and kept fixed (when the tracker built the model).
 4. Otherwise the **origin search** (:mod:`tracker.origin`) moves the root, holding the previous
-   body-part configuration, then the **filter** (IPF, APF or Condensation) updates the body parts.
+   body-part configuration, then the **filter** (IPF, APF or Condensation) updates the body parts,
+   then (``origin.after_filter``) the origin is searched again holding the new legs.
 5. **Leg-swap check**: the heaviest particles are weighed with their legs exchanged; a heavier
    one becomes the estimate and joins the particle set (``config.leg_swap``).
 6. **Heading check**: when the origin moves faster than a walking threshold in a direction far
