@@ -612,9 +612,11 @@ def filter_table(runs: list[Run]) -> str:
             continue
         p = pool(r.metrics for r in rs)
         evals = sorted({r.filter_evaluations for r in rs})
-        tracked = sorted({r.evals_tracked for r in rs if math.isfinite(r.evals_tracked)})
+        tracked = sorted(
+            {int(round(r.evals_tracked)) for r in rs if math.isfinite(r.evals_tracked)}
+        )
         rows.append(
-            [f, str(len(rs)), ", ".join(map(str, evals)), ", ".join(f"{v:.0f}" for v in tracked)]
+            [f, str(len(rs)), ", ".join(map(str, evals)), ", ".join(map(str, tracked))]
             + format_row(p.to_row(), TABLE_KEYS)[:-2]
             + [f"{p.frames_lost}/{p.n_truth_frames}", _ms(p)]
         )
