@@ -288,7 +288,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  requests: {len(lat)} in {wall:.1f} s ({len(lat) / wall:.0f}/s), errors: {errors}")
         print(
             f"  latency ms: p50 {np.percentile(ms, 50):.1f}  p90 {np.percentile(ms, 90):.1f}  "
-            f"p99 {np.percentile(ms, 99):.1f}  max {ms.max():.1f}  "
+            f"p99 {np.percentile(ms, 99):.1f}  p99.9 {np.percentile(ms, 99.9):.1f}  "
+            f"max {ms.max():.1f}  "
             f"(target p99 < 50 ms: {'met' if np.percentile(ms, 99) < 50 else 'NOT met'})"
         )
         lag = np.array(run.loop_lag or [0.0]) * 1000
