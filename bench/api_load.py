@@ -8,7 +8,10 @@ clients (httpx AsyncClient, one connection each) until ``--requests`` requests o
 (60 %), the last year by week (25 %), two years by month (15 %), random resident and metric.
 
 Target (issue 6): p99 under 50 ms at 50 concurrent clients with SQLite on the 2-core machine.
-Client and server share the machine, so the figures include the client's own CPU use.
+Client and server share the machine, so the figures include the client's own CPU use; the
+client's event-loop lag is printed so its own stalls are not taken for the server's. In the
+think-time scenario each client starts after its own think time (not all at the same instant);
+``--show-slow MS`` lists when the slow requests started (docs/api.md, "Latency tail").
 
 Usage::
 
