@@ -49,6 +49,9 @@ def run(args: argparse.Namespace) -> int:
         log_level=args.log_level,
         access_log=False,
         proxy_headers=False,
+        # Dashboards poll every few seconds: keep their connections instead of closing them
+        # after uvicorn's default 5 s (a client reusing a just-closed connection gets an error).
+        timeout_keep_alive=75,
     )
     if args.workers <= 1:
         uvicorn.run(app, **common)
