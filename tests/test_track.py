@@ -244,6 +244,32 @@ def test_leg_swap_check_unswaps_the_legs(clip: dict) -> None:
     assert _lower_limb_error(res.joints[None], clip["truth"][1:2])[0] < 0.12
 
 
+@pytest.mark.parametrize("enabled", [True, False])
+def test_redetect_recovers_a_track_that_slid_away(clip: dict, enabled: bool) -> None:
+    """A track moved 0.6 m off the person (beyond the origin search's reach) comes back at once
+    with re-detection; without it, it stays off."""
+    from tracker.config import RedetectConfig
+    from tracker.pipeline import Tracker
+
+    tracker = Tracker(
+        clip["cams"],
+        TrackerConfig(ipf=IPFConfig(kept=9), redetect=RedetectConfig(enabled=enabled)),
+        rng=np.random.default_rng(2),
+        backgrounds=clip["bgs"],
+        body=clip["body"],
+    )
+    tracker.process(0, 0.0, clip["frames"][0])
+    tracker.filter.particles[:, 1] += 0.6
+    tracker.prev_pose[1] += 0.6
+    res = tracker.process(1, 1 / FPS, clip["frames"][1])
+    assert res.status == "tracked"
+    sacrum_err = np.linalg.norm(res.joints[2, :2] - clip["truth"][1, 2, :2])
+    if enabled:
+        assert sacrum_err < 0.1
+    else:
+        assert sacrum_err > 0.3
+
+
 # -- the command line -----------------------------------------------------------------------------
 def test_track_cli_round_trip_and_seed(clip: dict, tmp_path: Path, capsys) -> None:
     outs = [tmp_path / "a.mcap", tmp_path / "b.mcap", tmp_path / "c.mcap"]

@@ -298,6 +298,38 @@ class InitConfig(_Model):
         return v
 
 
+class RedetectConfig(_Model):
+    """Per-frame re-detection: a small initial search around the silhouettes' floor point.
+
+    After the filter (and the leg-swap check), the initialisation search of ``tracker.init`` runs
+    on a reduced grid: every body configuration (standing, walking phases, seated) x positions
+    within ``init.position_radius_m`` of the floor point under this frame's silhouettes x
+    ``headings`` headings within ``span_deg`` of the estimate's; the ``refine_best`` best are
+    refined by the origin search. When the best weighs more than the estimate by ``margin``, it
+    becomes the estimate and the best few join the filter's particle set. It catches a track that
+    slid away from the person (one camera's depth ambiguity, a fast turn) before it is lost.
+    """
+
+    enabled: bool = True
+    every_frames: Annotated[
+        int, Field(ge=1, le=1000, description="Run on every n-th tracked frame")
+    ] = 1
+    headings: Annotated[int, Field(ge=1, le=72, description="Headings tried")] = 5
+    span_deg: Annotated[
+        float, Field(ge=0, le=180, description="Headings within +- this of the estimate's")
+    ] = 30.0
+    refine_best: Annotated[
+        int, Field(ge=0, le=50, description="Best candidates refined by the origin search")
+    ] = 2
+    margin: Annotated[
+        float,
+        Field(ge=0, le=1, description="Adopt when heavier than the estimate by more than this"),
+    ] = 0.01
+    inject: Annotated[
+        int, Field(ge=1, le=100, description="Best candidates added to the particle set")
+    ] = 9
+
+
 class HeadingCheckConfig(_Model):
     """Walking-direction check of the heading (a silhouette looks alike from front and back).
 
@@ -365,6 +397,7 @@ class TrackerConfig(_Model):
     ] = None
     origin: OriginSearchConfig = Field(default_factory=OriginSearchConfig)
     init: InitConfig = Field(default_factory=InitConfig)
+    redetect: RedetectConfig = Field(default_factory=RedetectConfig)
     heading_check: HeadingCheckConfig = Field(default_factory=HeadingCheckConfig)
     leg_swap: LegSwapConfig = Field(default_factory=LegSwapConfig)
     limits_profile: Annotated[str, Field(description="tracker.dof limit profile")] = "walking"

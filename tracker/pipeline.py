@@ -19,6 +19,9 @@ I/O: the caller decodes video and writes the pose log) and returns a :class:`Fra
    then (``origin.after_filter``) the origin is searched again holding the new legs.
 5. **Leg-swap check**: the heaviest particles are weighed with their legs exchanged; a heavier
    one becomes the estimate and joins the particle set (``config.leg_swap``).
+   **Re-detection** (``config.redetect``): a reduced initial search around this frame's
+   silhouette floor point and the current heading; a clearly heavier result becomes the
+   estimate (a track that slid off the person is caught before it is lost).
 6. **Heading check**: when the origin moves faster than a walking threshold in a direction far
    from the heading (the front/back ambiguity of silhouettes), re-initialise facing the walking
    direction if that weighs about as much (``config.heading_check``).
@@ -226,6 +229,8 @@ class Tracker:
         self._floor_now = np.full(2, np.nan)
         self._heading_checked_until = -np.inf
         self._girth_frames_left = c.init.girth_frames
+        self._masks: list[np.ndarray] = []
+        self._tracked_frames = 0
         if self._estimate_girth:
             self._girth_bodies[self.body.girth] = self.body
 
@@ -263,6 +268,7 @@ class Tracker:
         if sum(int(m.sum()) for m in masks) < self.config.min_silhouette_px:
             return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW + " (silhouette too small)")
         self.likelihood.set_silhouettes(masks)
+        self._masks = masks
         fp = floor_point(self.lik_cameras, masks)
         self._floor_now = np.full(2, np.nan) if fp is None else np.asarray(fp, dtype=np.float64)
         dt = self._dt(time_s)
@@ -409,9 +415,41 @@ class Tracker:
         swapped = self._check_leg_swap(weight)
         if swapped is not None:
             pose, weight = swapped
+        pose, weight = self._redetect(pose, weight, dt)
         if c.origin.enabled and c.origin.after_filter:
             pose, weight = self._refine_origin(pose, weight, dt)
         return pose, weight
+
+    def _redetect(self, pose: np.ndarray, weight: float, dt: float) -> tuple[np.ndarray, float]:
+        """A reduced initial search at this frame's silhouettes; adopt if clearly heavier."""
+        rc = self.config.redetect
+        self._tracked_frames += 1
+        if not rc.enabled or self._tracked_frames % rc.every_frames:
+            return pose, weight
+        span = np.radians(rc.span_deg)
+        headings = pose[DOF["root_yaw"]] + (
+            np.linspace(-span, span, rc.headings) if rc.headings > 1 else np.zeros(1)
+        )
+        c = self.config
+        cfg = c.model_copy(
+            update={"init": c.init.model_copy(update={"refine_best": rc.refine_best})}
+        )
+        with _numba_threads(self.threads):
+            res = initial_search(
+                self._lik,
+                self.body,
+                self.lik_cameras,
+                self._masks,
+                cfg,
+                limits=self.limits,
+                dt=dt,
+                headings=headings,
+            )
+        if res is None or not res.best_weight > weight + rc.margin:
+            return pose, weight
+        self.filter.inject(res.poses[: rc.inject], res.weights[: rc.inject], reset_motion=True)
+        log.debug("re-detected: weight %.3f -> %.3f", weight, res.best_weight)
+        return res.best.copy(), float(res.best_weight)
 
     def _refine_origin(
         self, pose: np.ndarray, weight: float, dt: float
