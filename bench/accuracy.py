@@ -38,8 +38,8 @@ Run::
 
 ``--filters`` also accepts non-default variants for experiments: ``ipf-published`` (the method
 as published: intervals centred on the particle's value, fixed width, one pass, the M heaviest
-distinct particles kept), ``ipf-wide`` (``ipf.interval_deg = 30``) and ``ipf-contact``
-(``floor = contact``).
+distinct particles kept), ``ipf-wide`` (``ipf.interval_deg = 30``) and ``ipf-above``
+(``floor = above``: feet may float above the floor, the default before session 3).
 
 View specs: ``side``, ``oblique``, ``frontal``, several joined by ``+`` (one camera each, e.g.
 ``side+frontal``), optionally ``@table`` or ``@sofa`` for an occluder in front of the first
@@ -141,7 +141,7 @@ FILTER_VARIANTS: dict[str, dict] = {
         },
     },
     "ipf-wide": {"filter": "ipf", "ipf": {"interval_deg": 30.0}},
-    "ipf-contact": {"filter": "ipf", "floor": "contact"},
+    "ipf-above": {"filter": "ipf", "floor": "above"},
 }
 ALL_FILTERS = tuple(FILTER_VARIANTS)
 VIEWS = ("side", "oblique", "frontal")

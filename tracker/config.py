@@ -426,7 +426,7 @@ class TrackerConfig(_Model):
             "above = no key point below the floor; contact = the lowest key point on the floor "
             "(someone standing, walking or lying, not jumping); off"
         ),
-    ] = "above"
+    ] = "contact"
     floor_tolerance_m: Annotated[float, Field(ge=0, le=0.5)] = 0.02
     min_silhouette_px: Annotated[
         int,
