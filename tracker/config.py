@@ -334,6 +334,30 @@ class HeadingCheckConfig(_Model):
     max_angle_deg: Annotated[float, Field(ge=0, le=180)] = 110.0
     span_deg: Annotated[float, Field(ge=0, le=180)] = 40.0
     accept_ratio: Annotated[float, Field(ge=0, le=2)] = 0.85
+    continuity_tie: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="After a flip, distinct candidates of the search weighing at least "
+            "(1 - continuity_tie) times the heaviest are ties; the one whose ankles, heels and "
+            "toes are nearest the backwards estimate's wins (the silhouettes placed the feet, "
+            "only the heading, hence leg assignment and gait phase, was wrong). 0: the "
+            "heaviest wins",
+        ),
+    ] = 0.2
+    continuity_candidates: Annotated[
+        int, Field(ge=1, le=1000, description="Distinct candidates considered after a flip")
+    ] = 30
+    continuity_margin_m: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=5,
+            description="The filter is seeded with the candidates whose feet are at most this "
+            "much farther (mean, metres) from the backwards estimate's than the chosen one's",
+        ),
+    ] = 0.1
 
 
 class LegSwapConfig(_Model):
@@ -346,6 +370,17 @@ class LegSwapConfig(_Model):
 
     enabled: bool = True
     candidates: Annotated[int, Field(ge=1, le=1000)] = 9
+    continuity_tie: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="Candidates (the estimate, the heaviest particles and their leg-swapped "
+            "versions) weighing at least (1 - continuity_tie) times the heaviest are ties; the "
+            "one whose ankles, heels and toes are nearest the previous estimate's wins (a "
+            "stance foot does not slide). 0: a swapped particle wins only when heavier",
+        ),
+    ] = 0.0
 
 
 class TrackerConfig(_Model):
