@@ -334,30 +334,34 @@ class HeadingCheckConfig(_Model):
     max_angle_deg: Annotated[float, Field(ge=0, le=180)] = 110.0
     span_deg: Annotated[float, Field(ge=0, le=180)] = 40.0
     accept_ratio: Annotated[float, Field(ge=0, le=2)] = 0.85
+    leg_modes: Annotated[
+        bool,
+        Field(
+            description="After a flip, split the search's candidates into two leg assignments "
+            "(feet near the heaviest's, and the rest), refine each with one filter step and "
+            "keep the heavier; off: one filter step seeded with every candidate (it refines "
+            "the heaviest's assignment only)"
+        ),
+    ] = True
+    mode_separation_m: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=2,
+            description="Candidates whose ankles, heels and toes are farther than this (mean, "
+            "metres) from the heaviest candidate's form the other leg assignment",
+        ),
+    ] = 0.3
     continuity_tie: Annotated[
         float,
         Field(
             ge=0,
             le=1,
-            description="After a flip, distinct candidates of the search weighing at least "
-            "(1 - continuity_tie) times the heaviest are ties; the one whose ankles, heels and "
-            "toes are nearest the backwards estimate's wins (the silhouettes placed the feet, "
-            "only the heading, hence leg assignment and gait phase, was wrong). 0: the "
-            "heaviest wins",
+            description="Refined leg assignments weighing within this fraction of each other "
+            "are ties: the one whose feet are nearer the backwards estimate's wins (the "
+            "silhouettes placed the feet, only the heading was wrong); 0: the heavier wins",
         ),
-    ] = 0.2
-    continuity_candidates: Annotated[
-        int, Field(ge=1, le=1000, description="Distinct candidates considered after a flip")
-    ] = 30
-    continuity_margin_m: Annotated[
-        float,
-        Field(
-            ge=0,
-            le=5,
-            description="The filter is seeded with the candidates whose feet are at most this "
-            "much farther (mean, metres) from the backwards estimate's than the chosen one's",
-        ),
-    ] = 0.1
+    ] = 0.02
 
 
 class LegSwapConfig(_Model):

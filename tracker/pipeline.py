@@ -598,13 +598,17 @@ class Tracker:
         self._heading_checked_until = time_s + hc.cooldown_s
         if res is None or res.best_weight < hc.accept_ratio * weight:
             return None
-        poses, weights = res.poses, res.weights
-        if hc.continuity_tie > 0:
-            poses, weights = self._feet_continuity(pose, poses, weights, hc)
-        self.filter.initialise(poses, weights)
-        with _numba_threads(self.threads):
-            est = self.filter.step(self._lik, dt)
-        new, w = (est.pose, est.weight) if est.weight >= weights[0] else (poses[0], weights[0])
+        if hc.leg_modes:
+            new, w = self._flip_modes(pose, res.poses, res.weights, dt, hc)
+        else:
+            self.filter.initialise(res.poses, res.weights)
+            with _numba_threads(self.threads):
+                est = self.filter.step(self._lik, dt)
+            new, w = (
+                (est.pose, est.weight)
+                if est.weight >= res.best_weight
+                else (res.best, res.best_weight)
+            )
         return (
             new.copy(),
             float(w),
@@ -613,31 +617,55 @@ class Tracker:
             f"(weight {w:.3f}, was {weight:.3f})",
         )
 
-    def _feet_continuity(
-        self, backwards: np.ndarray, poses: np.ndarray, weights: np.ndarray, hc
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Of the flip's candidates, keep those with the feet where the backwards estimate had them.
+    def _flip_modes(
+        self, backwards: np.ndarray, poses: np.ndarray, weights: np.ndarray, dt: float, hc
+    ) -> tuple[np.ndarray, float]:
+        """Refine both leg assignments of a flip's candidates; seed the filter with the winner.
 
-        The backwards estimate fitted the silhouettes: its feet are where the image shows feet,
-        only the heading (and so the leg assignment and gait phase) was wrong. Among the
-        distinct candidates weighing at least ``1 - hc.continuity_tie`` times the heaviest, the
-        one whose ankles, heels and toes are nearest the backwards estimate's is chosen; the
-        filter is seeded with it and the candidates whose feet are within
-        ``hc.continuity_margin_m`` as near (heaviest first).
+        Facing the other way, the silhouettes fit two leg assignments (which leg is in front,
+        gait phase) about equally, and the coarse grid's best often has the wrong one; a filter
+        seeded with every candidate refines only the heaviest's mode. The candidates are split
+        in two modes: feet (ankles, heels, toes; mean distance) within ``hc.mode_separation_m``
+        of the heaviest candidate's, and the rest. Each mode seeds the filter for one step; the
+        heavier refined estimate wins. Within ``hc.continuity_tie`` (relative) of each other,
+        the one whose feet are nearer the backwards estimate's wins (the silhouettes placed the
+        feet, only the heading was wrong). The filter is left seeded with the winning mode.
+
+        Parameters
+        ----------
+        backwards : ndarray (31,)
+            This frame's estimate facing backwards.
+        poses, weights : ndarray (K, 31), (K,)
+            The flip's initial-search candidates, heaviest first.
 
         Returns
         -------
-        poses : ndarray (K, 31), weights : ndarray (K,)
-            The chosen candidate first.
+        pose : ndarray (31,), weight : float
         """
-        ref = np.asarray(self.body.forward(backwards[None]))[0]
-        idx = select_distinct(poses, weights, hc.continuity_candidates)
-        k = idx[_continuity_choice(self.body, poses[idx], weights[idx], ref, hc.continuity_tie)]
         feet = np.asarray(self.body.forward(poses))[:, _FEET_POINTS]
-        d = np.linalg.norm(feet - ref[_FEET_POINTS], axis=2).mean(axis=1)
-        keep = np.flatnonzero(d <= d[k] + hc.continuity_margin_m)
-        keep = np.concatenate([[k], keep[keep != k]])
-        return poses[keep], weights[keep]
+        apart = np.linalg.norm(feet - feet[0], axis=2).mean(axis=1) > hc.mode_separation_m
+        modes = [np.flatnonzero(~apart), np.flatnonzero(apart)]
+        modes = [m for m in modes if m.size]
+        results = []
+        for m in modes:
+            self.filter.initialise(poses[m], weights[m])
+            with _numba_threads(self.threads):
+                est = self.filter.step(self._lik, dt)
+            if est.weight >= weights[m[0]]:
+                results.append((est.pose.copy(), float(est.weight)))
+            else:
+                results.append((poses[m[0]].copy(), float(weights[m[0]])))
+        rw = np.array([r[1] for r in results])
+        cand = np.stack([r[0] for r in results])
+        ref = np.asarray(self.body.forward(backwards[None]))[0]
+        k = _continuity_choice(self.body, cand, rw, ref, hc.continuity_tie)
+        m = modes[k]
+        self.filter.initialise(
+            np.concatenate([cand[k][None], poses[m]]), np.concatenate([[rw[k]], weights[m]])
+        )
+        if len(modes) > 1:
+            log.debug("flip: leg modes weigh %s after refinement, chose %d", np.round(rw, 3), k)
+        return cand[k], float(rw[k])
 
     def _path_entry(self, time_s: float, pose: np.ndarray) -> tuple[float, ...]:
         f = self._floor_now
