@@ -88,7 +88,7 @@ def _flip_tracker(body, target: np.ndarray, hc: HeadingCheckConfig) -> Tracker:
 def test_flip_refines_both_leg_assignments(walk: dict) -> None:
     """The grid's heaviest has the legs swapped; refined, the other assignment weighs more."""
     body, p = walk["body"], walk["poses"][3]
-    hc = HeadingCheckConfig(continuity_tie=0.0)
+    hc = HeadingCheckConfig(leg_choice="refine", continuity_tie=0.0)
     tr = _flip_tracker(body, p, hc)
     rng = np.random.default_rng(1)
     # Coarse grid: the exchanged legs exactly (the alias peak, heaviest) and the true
@@ -114,13 +114,31 @@ def test_flip_tie_goes_to_the_feet_of_the_backwards_estimate(walk: dict) -> None
     body, p = walk["body"], walk["poses"][3]
     sw = _swapped(p)
     for backwards, expect in ((p, p), (sw, sw)):
-        hc = HeadingCheckConfig(continuity_tie=0.5)
+        hc = HeadingCheckConfig(leg_choice="refine", continuity_tie=0.5)
         tr = _flip_tracker(body, p, hc)
         # the oracle favours p by 15 %; with a 50 % tie the reference decides
         cand = np.stack([sw, p])
         pose, _ = tr._flip_modes(backwards, cand, tr.likelihood.weights(cand), 0.05, hc)
         j = np.asarray(body.forward(np.stack([pose, expect])))
         assert np.linalg.norm(j[0, _FEET_POINTS] - j[1, _FEET_POINTS], axis=1).mean() < 0.1
+
+
+def test_flip_feet_choice_seeds_the_filter_with_the_feet_in_place(walk: dict) -> None:
+    """leg_choice feet: the seed set starts with the near tie whose feet stayed; far ones go."""
+    body, p = walk["body"], walk["poses"][3]
+    hc = HeadingCheckConfig(leg_choice="feet", feet_tie=0.2, feet_margin_m=0.1)
+    tr = _flip_tracker(body, p, hc)
+    rng = np.random.default_rng(1)
+    near = p + np.concatenate([np.zeros(6), rng.normal(0.0, 0.005, p.size - 6)])
+    poses = np.stack([_swapped(p), _swapped(near), p, near])
+    weights = np.array([1.0, 0.99, 0.9, 0.88])
+    seeds, w = tr._feet_continuity(p, poses, weights, hc)
+    assert np.allclose(seeds[0], p)
+    assert seeds.shape[0] == 2  # p and near; both swapped ones are ~0.3 m off
+    assert np.allclose(w, [0.9, 0.88])
+    # No tie (the heaviest is clearly heavier): it leads.
+    seeds, _ = tr._feet_continuity(p, poses, weights, hc.model_copy(update={"feet_tie": 0.05}))
+    assert np.allclose(seeds[0], _swapped(p))
 
 
 @pytest.fixture(scope="module")
@@ -161,10 +179,10 @@ def backwards_start_scene(shared_data) -> dict:
 def test_backwards_start_turns_forwards(backwards_start_scene: dict) -> None:
     """A track started backwards faces forwards within a few frames and stays so.
 
-    Which leg is which after the flip is not asserted: on this rendering the refined
-    assignments weigh within 5 % of each other and the choice depends on the tracker seed
-    (lower limbs 0.05-0.1 m after the flip with the right one, 0.5 m with the other); see
-    docs/tracker.md.
+    Which leg is which after the flip is not asserted: on this rendering the backwards estimate
+    has the feet in the wrong places (0.48 m), so leg_choice feet keeps the wrong assignment
+    (lower limbs 0.5 m for 9 frames), and leg_choice refine picks the right one for tracker
+    seed 0 only (the assignments weigh within 5 %); see docs/tracker.md.
     """
     from gait.geometry import body_forward
 

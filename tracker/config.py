@@ -334,15 +334,35 @@ class HeadingCheckConfig(_Model):
     max_angle_deg: Annotated[float, Field(ge=0, le=180)] = 110.0
     span_deg: Annotated[float, Field(ge=0, le=180)] = 40.0
     accept_ratio: Annotated[float, Field(ge=0, le=2)] = 0.85
-    leg_modes: Annotated[
-        bool,
+    leg_choice: Annotated[
+        Literal["feet", "refine", "heaviest"],
         Field(
-            description="After a flip, split the search's candidates into two leg assignments "
-            "(feet near the heaviest's, and the rest), refine each with one filter step and "
-            "keep the heavier; off: one filter step seeded with every candidate (it refines "
-            "the heaviest's assignment only)"
+            description="Leg assignment after a flip. feet: of the distinct candidates weighing "
+            "at least (1 - feet_tie) times the heaviest, the one whose ankles, heels and toes "
+            "are nearest the backwards estimate's seeds the filter, with the candidates whose "
+            "feet are within feet_margin_m as near. refine: split the candidates into two "
+            "assignments (feet near the heaviest's, and the rest; mode_separation_m), refine "
+            "each with one filter step, keep the heavier (ties within continuity_tie: the feet "
+            "nearer the backwards estimate's). heaviest: one filter step seeded with every "
+            "candidate (the former behaviour)",
         ),
-    ] = True
+    ] = "feet"
+    feet_tie: Annotated[
+        float, Field(ge=0, le=1, description="leg_choice feet: relative weight tolerance")
+    ] = 0.2
+    feet_candidates: Annotated[
+        int, Field(ge=1, le=1000, description="leg_choice feet: distinct candidates considered")
+    ] = 30
+    feet_margin_m: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=5,
+            description="leg_choice feet: seed the filter with the candidates whose feet are at "
+            "most this much farther (mean, metres) from the backwards estimate's than the "
+            "chosen one's",
+        ),
+    ] = 0.1
     mode_separation_m: Annotated[
         float,
         Field(

@@ -598,17 +598,16 @@ class Tracker:
         self._heading_checked_until = time_s + hc.cooldown_s
         if res is None or res.best_weight < hc.accept_ratio * weight:
             return None
-        if hc.leg_modes:
+        if hc.leg_choice == "refine":
             new, w = self._flip_modes(pose, res.poses, res.weights, dt, hc)
         else:
-            self.filter.initialise(res.poses, res.weights)
+            poses, weights = res.poses, res.weights
+            if hc.leg_choice == "feet":
+                poses, weights = self._feet_continuity(pose, poses, weights, hc)
+            self.filter.initialise(poses, weights)
             with _numba_threads(self.threads):
                 est = self.filter.step(self._lik, dt)
-            new, w = (
-                (est.pose, est.weight)
-                if est.weight >= res.best_weight
-                else (res.best, res.best_weight)
-            )
+            new, w = (est.pose, est.weight) if est.weight >= weights[0] else (poses[0], weights[0])
         return (
             new.copy(),
             float(w),
@@ -616,6 +615,32 @@ class Tracker:
             f"walking direction: re-initialised facing {np.degrees(travel):.0f} deg "
             f"(weight {w:.3f}, was {weight:.3f})",
         )
+
+    def _feet_continuity(
+        self, backwards: np.ndarray, poses: np.ndarray, weights: np.ndarray, hc
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Of the flip's candidates, keep those with the feet where the backwards estimate had them.
+
+        The backwards estimate fitted the silhouettes: its feet are where the image shows feet,
+        only the heading (and so the leg assignment and gait phase) was wrong. Among the
+        distinct candidates weighing at least ``1 - hc.feet_tie`` times the heaviest, the
+        one whose ankles, heels and toes are nearest the backwards estimate's is chosen; the
+        filter is seeded with it and the candidates whose feet are within
+        ``hc.feet_margin_m`` as near (heaviest first).
+
+        Returns
+        -------
+        poses : ndarray (K, 31), weights : ndarray (K,)
+            The chosen candidate first.
+        """
+        ref = np.asarray(self.body.forward(backwards[None]))[0]
+        idx = select_distinct(poses, weights, hc.feet_candidates)
+        k = idx[_continuity_choice(self.body, poses[idx], weights[idx], ref, hc.feet_tie)]
+        feet = np.asarray(self.body.forward(poses))[:, _FEET_POINTS]
+        d = np.linalg.norm(feet - ref[_FEET_POINTS], axis=2).mean(axis=1)
+        keep = np.flatnonzero(d <= d[k] + hc.feet_margin_m)
+        keep = np.concatenate([[k], keep[keep != k]])
+        return poses[keep], weights[keep]
 
     def _flip_modes(
         self, backwards: np.ndarray, poses: np.ndarray, weights: np.ndarray, dt: float, hc
