@@ -366,6 +366,54 @@ class HeadingCheckConfig(_Model):
     max_angle_deg: Annotated[float, Field(ge=0, le=180)] = 110.0
     span_deg: Annotated[float, Field(ge=0, le=180)] = 40.0
     accept_ratio: Annotated[float, Field(ge=0, le=2)] = 0.85
+    leg_choice: Annotated[
+        Literal["feet", "refine", "heaviest"],
+        Field(
+            description="Leg assignment after a flip. feet: of the distinct candidates weighing "
+            "at least (1 - feet_tie) times the heaviest, the one whose ankles, heels and toes "
+            "are nearest the backwards estimate's seeds the filter, with the candidates whose "
+            "feet are within feet_margin_m as near. refine: split the candidates into two "
+            "assignments (feet near the heaviest's, and the rest; mode_separation_m), refine "
+            "each with one filter step, keep the heavier (ties within continuity_tie: the feet "
+            "nearer the backwards estimate's). heaviest: one filter step seeded with every "
+            "candidate (the former behaviour)",
+        ),
+    ] = "feet"
+    feet_tie: Annotated[
+        float, Field(ge=0, le=1, description="leg_choice feet: relative weight tolerance")
+    ] = 0.2
+    feet_candidates: Annotated[
+        int, Field(ge=1, le=1000, description="leg_choice feet: distinct candidates considered")
+    ] = 30
+    feet_margin_m: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=5,
+            description="leg_choice feet: seed the filter with the candidates whose feet are at "
+            "most this much farther (mean, metres) from the backwards estimate's than the "
+            "chosen one's",
+        ),
+    ] = 0.1
+    mode_separation_m: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=2,
+            description="Candidates whose ankles, heels and toes are farther than this (mean, "
+            "metres) from the heaviest candidate's form the other leg assignment",
+        ),
+    ] = 0.3
+    continuity_tie: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="Refined leg assignments weighing within this fraction of each other "
+            "are ties: the one whose feet are nearer the backwards estimate's wins (the "
+            "silhouettes placed the feet, only the heading was wrong); 0: the heavier wins",
+        ),
+    ] = 0.02
 
 
 class LegSwapConfig(_Model):
@@ -378,6 +426,17 @@ class LegSwapConfig(_Model):
 
     enabled: bool = True
     candidates: Annotated[int, Field(ge=1, le=1000)] = 9
+    continuity_tie: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="Candidates (the estimate, the heaviest particles and their leg-swapped "
+            "versions) weighing at least (1 - continuity_tie) times the heaviest are ties; the "
+            "one whose ankles, heels and toes are nearest the previous estimate's wins (a "
+            "stance foot does not slide). 0: a swapped particle wins only when heavier",
+        ),
+    ] = 0.0
 
 
 class TrackerConfig(_Model):

@@ -124,6 +124,40 @@ def _single_thread():
     return _numba_threads(1)
 
 
+_FEET_POINTS = [13, 14, 15, 16, 17, 18]  # ankles, heels, toes (CONVENTIONS order)
+
+
+def _continuity_choice(
+    body, poses: np.ndarray, weights: np.ndarray, reference: np.ndarray, tie: float
+) -> int:
+    """Index of the tie (weight >= (1 - tie) * max) whose feet are nearest ``reference``.
+
+    Parameters
+    ----------
+    body : tracker.body.BodyModel
+    poses : ndarray (K, 31)
+    weights : ndarray (K,)
+    reference : ndarray (19, 3)
+        Key points (metres, world) of the reference pose.
+    tie : float
+        Relative weight tolerance (0..1).
+
+    Returns
+    -------
+    int
+        The heaviest candidate when no other is within the tolerance; else the tie whose
+        ankles, heels and toes are nearest (mean distance, metres) their namesakes in
+        ``reference`` (physical continuity: a foot in stance does not slide on the floor).
+    """
+    w = np.asarray(weights, dtype=np.float64)
+    ok = np.flatnonzero(w >= (1.0 - tie) * w.max())
+    if ok.size <= 1:
+        return int(np.argmax(w))
+    feet = np.asarray(body.forward(poses[ok]))[:, _FEET_POINTS]
+    d = np.linalg.norm(feet - reference[_FEET_POINTS], axis=2).mean(axis=1)
+    return int(ok[int(np.argmin(d))])
+
+
 class _CountingLikelihood:
     """Counts the poses weighed (for the per-frame evaluation figures)."""
 
@@ -220,6 +254,8 @@ class Tracker:
         self.threads = numba.get_num_threads()
         # track state
         self.prev_pose: np.ndarray | None = None
+        #: Key points (19, 3) of the previous estimate (the leg-identity reference).
+        self._prev_joints: np.ndarray | None = None
         self.prev_time: float | None = None
         self.velocity_xy = np.zeros(2)
         self.low_count = 0
@@ -307,6 +343,7 @@ class Tracker:
             self._update_girth(pose)
         pose, weight, joints = self._floor_constraint(pose, weight)
         self._remember(pose, time_s, dt, continuous=status == "tracked")
+        self._prev_joints = joints
         for n in notes:
             log.info("frame %d: %s", frame_index, n)
         return FrameResult(
@@ -412,7 +449,8 @@ class Tracker:
         with _numba_threads(self.threads):
             est = self.filter.step(self._lik, dt)
         pose, weight = est.pose, est.weight
-        swapped = self._check_leg_swap(weight)
+        ref = self._prev_joints if self.config.leg_swap.continuity_tie > 0 else None
+        swapped = self._check_leg_swap(pose, weight, ref, self.config.leg_swap.continuity_tie)
         if swapped is not None:
             pose, weight = swapped
         pose, weight = self._redetect(pose, weight, dt)
@@ -471,25 +509,55 @@ class Tracker:
         self.filter.inject(res.pose[None], np.array([res.weight]))
         return res.pose.copy(), float(res.weight)
 
-    def _check_leg_swap(self, weight: float) -> tuple[np.ndarray, float] | None:
-        """Weigh the heaviest particles with their legs exchanged; adopt a heavier one."""
+    def _check_leg_swap(
+        self, pose: np.ndarray, weight: float, reference: np.ndarray | None, tie: float
+    ) -> tuple[np.ndarray, float] | None:
+        """Weigh the heaviest particles with their legs exchanged; choose the leg identity.
+
+        Parameters
+        ----------
+        pose, weight
+            The filter's estimate (31,) and its weight.
+        reference : ndarray (19, 3) or None
+            Key points (metres, world) the feet should stay near: the previous estimate while
+            tracking (a stance foot does not slide on the floor), the backwards estimate of
+            this frame after a heading flip; None: the heaviest candidate wins.
+        tie : float
+            Candidates weighing at least ``(1 - tie)`` times the heaviest are ties; among
+            them the one whose feet moved least from ``reference`` is chosen.
+
+        Returns
+        -------
+        (pose, weight) when another candidate than ``pose`` is chosen, else None.
+        """
         ls = self.config.leg_swap
         if not ls.enabled:
             return None
         f = self.filter
         idx = select_distinct(f.particles, f.weights, ls.candidates)
-        cand = f.particles[idx].copy()
+        base = f.particles[idx]
+        cand = base.copy()
         left, right = list(LEFT_LEG), list(RIGHT_LEG)
-        cand[:, left], cand[:, right] = f.particles[idx][:, right], f.particles[idx][:, left]
+        cand[:, left], cand[:, right] = base[:, right], base[:, left]
         f.clamp(cand)
         with _single_thread():
             w = np.asarray(self._lik.weights(cand), dtype=np.float64)
-        k = int(np.argmax(w))
-        if not w[k] > weight:
+        if reference is None or tie <= 0.0:
+            k = int(np.argmax(w))
+            if not w[k] > weight:
+                return None
+            f.inject(cand, w, reset_motion=True)
+            log.debug("legs swapped: weight %.3f -> %.3f", weight, w[k])
+            return cand[k].copy(), float(w[k])
+        allp = np.concatenate([pose[None], base, cand])
+        allw = np.concatenate([[weight], f.weights[idx], w])
+        k = _continuity_choice(self.body, allp, allw, reference, tie)
+        if k == 0:
             return None
-        f.inject(cand, w, reset_motion=True)
-        log.debug("legs swapped: weight %.3f -> %.3f", weight, w[k])
-        return cand[k].copy(), float(w[k])
+        if k > base.shape[0]:
+            f.inject(cand, w, reset_motion=True)
+        log.debug("leg identity: weight %.3f -> %.3f (candidate %d)", weight, allw[k], k)
+        return allp[k].copy(), float(allw[k])
 
     def _floor_constraint(
         self, pose: np.ndarray, weight: float
@@ -568,12 +636,16 @@ class Tracker:
         self._heading_checked_until = time_s + hc.cooldown_s
         if res is None or res.best_weight < hc.accept_ratio * weight:
             return None
-        self.filter.initialise(res.poses, res.weights)
-        with _numba_threads(self.threads):
-            est = self.filter.step(self._lik, dt)
-        new, w = (
-            (est.pose, est.weight) if est.weight >= res.best_weight else (res.best, res.best_weight)
-        )
+        if hc.leg_choice == "refine":
+            new, w = self._flip_modes(pose, res.poses, res.weights, dt, hc)
+        else:
+            poses, weights = res.poses, res.weights
+            if hc.leg_choice == "feet":
+                poses, weights = self._feet_continuity(pose, poses, weights, hc)
+            self.filter.initialise(poses, weights)
+            with _numba_threads(self.threads):
+                est = self.filter.step(self._lik, dt)
+            new, w = (est.pose, est.weight) if est.weight >= weights[0] else (poses[0], weights[0])
         return (
             new.copy(),
             float(w),
@@ -581,6 +653,82 @@ class Tracker:
             f"walking direction: re-initialised facing {np.degrees(travel):.0f} deg "
             f"(weight {w:.3f}, was {weight:.3f})",
         )
+
+    def _feet_continuity(
+        self, backwards: np.ndarray, poses: np.ndarray, weights: np.ndarray, hc
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Of the flip's candidates, keep those with the feet where the backwards estimate had them.
+
+        The backwards estimate fitted the silhouettes: its feet are where the image shows feet,
+        only the heading (and so the leg assignment and gait phase) was wrong. Among the
+        distinct candidates weighing at least ``1 - hc.feet_tie`` times the heaviest, the
+        one whose ankles, heels and toes are nearest the backwards estimate's is chosen; the
+        filter is seeded with it and the candidates whose feet are within
+        ``hc.feet_margin_m`` as near (heaviest first).
+
+        Returns
+        -------
+        poses : ndarray (K, 31), weights : ndarray (K,)
+            The chosen candidate first.
+        """
+        ref = np.asarray(self.body.forward(backwards[None]))[0]
+        idx = select_distinct(poses, weights, hc.feet_candidates)
+        k = idx[_continuity_choice(self.body, poses[idx], weights[idx], ref, hc.feet_tie)]
+        feet = np.asarray(self.body.forward(poses))[:, _FEET_POINTS]
+        d = np.linalg.norm(feet - ref[_FEET_POINTS], axis=2).mean(axis=1)
+        keep = np.flatnonzero(d <= d[k] + hc.feet_margin_m)
+        keep = np.concatenate([[k], keep[keep != k]])
+        return poses[keep], weights[keep]
+
+    def _flip_modes(
+        self, backwards: np.ndarray, poses: np.ndarray, weights: np.ndarray, dt: float, hc
+    ) -> tuple[np.ndarray, float]:
+        """Refine both leg assignments of a flip's candidates; seed the filter with the winner.
+
+        Facing the other way, the silhouettes fit two leg assignments (which leg is in front,
+        gait phase) about equally, and the coarse grid's best often has the wrong one; a filter
+        seeded with every candidate refines only the heaviest's mode. The candidates are split
+        in two modes: feet (ankles, heels, toes; mean distance) within ``hc.mode_separation_m``
+        of the heaviest candidate's, and the rest. Each mode seeds the filter for one step; the
+        heavier refined estimate wins. Within ``hc.continuity_tie`` (relative) of each other,
+        the one whose feet are nearer the backwards estimate's wins (the silhouettes placed the
+        feet, only the heading was wrong). The filter is left seeded with the winning mode.
+
+        Parameters
+        ----------
+        backwards : ndarray (31,)
+            This frame's estimate facing backwards.
+        poses, weights : ndarray (K, 31), (K,)
+            The flip's initial-search candidates, heaviest first.
+
+        Returns
+        -------
+        pose : ndarray (31,), weight : float
+        """
+        feet = np.asarray(self.body.forward(poses))[:, _FEET_POINTS]
+        apart = np.linalg.norm(feet - feet[0], axis=2).mean(axis=1) > hc.mode_separation_m
+        modes = [np.flatnonzero(~apart), np.flatnonzero(apart)]
+        modes = [m for m in modes if m.size]
+        results = []
+        for m in modes:
+            self.filter.initialise(poses[m], weights[m])
+            with _numba_threads(self.threads):
+                est = self.filter.step(self._lik, dt)
+            if est.weight >= weights[m[0]]:
+                results.append((est.pose.copy(), float(est.weight)))
+            else:
+                results.append((poses[m[0]].copy(), float(weights[m[0]])))
+        rw = np.array([r[1] for r in results])
+        cand = np.stack([r[0] for r in results])
+        ref = np.asarray(self.body.forward(backwards[None]))[0]
+        k = _continuity_choice(self.body, cand, rw, ref, hc.continuity_tie)
+        m = modes[k]
+        self.filter.initialise(
+            np.concatenate([cand[k][None], poses[m]]), np.concatenate([[rw[k]], weights[m]])
+        )
+        if len(modes) > 1:
+            log.debug("flip: leg modes weigh %s after refinement, chose %d", np.round(rw, 3), k)
+        return cand[k], float(rw[k])
 
     def _path_entry(self, time_s: float, pose: np.ndarray) -> tuple[float, ...]:
         f = self._floor_now
@@ -605,6 +753,7 @@ class Tracker:
     def _no_pose(self, frame_index: int, time_s: float, reason: str) -> FrameResult:
         self.need_init = True
         self.prev_pose = None
+        self._prev_joints = None
         self.prev_time = float(time_s)
         self.velocity_xy = np.zeros(2)
         self.low_count = 0
