@@ -411,7 +411,22 @@ class Tracker:
             pose, weight = swapped
         if c.origin.enabled and c.origin.after_filter:
             pose, weight = self._refine_origin(pose, weight, dt)
+        if c.refine.enabled:
+            pose, weight = self._refine_pose(pose, weight, dt)
         return pose, weight
+
+    def _refine_pose(self, pose: np.ndarray, weight: float, dt: float) -> tuple[np.ndarray, float]:
+        """Local coordinate search of the estimate (:mod:`tracker.refine`); joins the particles."""
+        from tracker.refine import refine_top
+
+        with _single_thread():
+            res = refine_top(
+                self._lik, self.filter, pose, weight, self.config, limits=self.limits, dt=dt
+            )
+        if not res.weight > weight:
+            return pose, weight
+        self.filter.inject(res.pose[None], np.array([res.weight]))
+        return res.pose.copy(), float(res.weight)
 
     def _refine_origin(
         self, pose: np.ndarray, weight: float, dt: float
