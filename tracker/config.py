@@ -407,6 +407,13 @@ class RefineConfig(_Model):
         bool,
         Field(description="Weigh leg moves as left x right combinations (weights_factored)"),
     ] = True
+    inject: Annotated[
+        bool,
+        Field(
+            description="Add the refined pose to the filter's particles (the next frame starts "
+            "from it); off: only the output is refined"
+        ),
+    ] = True
 
     @field_validator("range_overrides")
     @classmethod

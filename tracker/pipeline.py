@@ -425,7 +425,8 @@ class Tracker:
             )
         if not res.weight > weight:
             return pose, weight
-        self.filter.inject(res.pose[None], np.array([res.weight]))
+        if self.config.refine.inject:
+            self.filter.inject(res.pose[None], np.array([res.weight]))
         return res.pose.copy(), float(res.weight)
 
     def _refine_origin(
