@@ -439,6 +439,79 @@ class LegSwapConfig(_Model):
     ] = 0.0
 
 
+class RefineConfig(_Model):
+    """Deterministic local refinement of the whole pose after the filter (:mod:`tracker.refine`).
+
+    Coordinate search by body parts: every searched DOF is moved alone to ``offsets`` values
+    within +- its range, the best move of each part is combined, only improvements are kept;
+    the ranges shrink by ``shrink`` per level. The refined pose joins the filter's particles.
+    """
+
+    enabled: Annotated[bool, Field(description="Refine the estimate after the filter")] = True
+    offsets: Annotated[
+        int,
+        Field(ge=2, le=12, description="Values per DOF and level (even: +-r, +-r/2, ...)"),
+    ] = 2
+    levels: Annotated[
+        int, Field(ge=1, le=6, description="Refinements with shrinking ranges per sweep")
+    ] = 2
+    shrink: Annotated[float, Field(gt=0, lt=1, description="Range factor per level")] = 0.5
+    sweeps: Annotated[int, Field(ge=1, le=4, description="Repeats of all levels")] = 1
+    range_flexion_deg: Annotated[
+        float, Field(ge=0, le=90, description="+- range of hip and knee flexion at 20 Hz")
+    ] = 6.0
+    range_leg_deg: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=90,
+            description="+- range of the other leg DOFs (abduction, rotation, ankle) at 20 Hz",
+        ),
+    ] = 6.0
+    upper_body: Annotated[bool, Field(description="Also search the trunk, head and arm DOFs")] = (
+        True
+    )
+    range_upper_deg: Annotated[
+        float, Field(ge=0, le=90, description="+- range of trunk, head and arm DOFs at 20 Hz")
+    ] = 6.0
+    root: Annotated[bool, Field(description="Also search the root (after the body parts)")] = False
+    range_root_m: Annotated[float, Field(ge=0, le=1, description="+- range of x, y, z")] = 0.02
+    range_root_deg: Annotated[
+        float, Field(ge=0, le=90, description="+- range of heading, pitch, roll")
+    ] = 3.0
+    range_overrides: Annotated[
+        dict[str, float],
+        Field(description="Per-DOF +- range (degrees; metres for root x, y, z); 0 = not searched"),
+    ] = {}
+    scale_with_dt: Annotated[
+        bool, Field(description="Scale the ranges with dt / reference_dt_s")
+    ] = False
+    top_k: Annotated[
+        int,
+        Field(
+            ge=1,
+            le=16,
+            description="Refine the k heaviest distinct particles (the heaviest result is kept)",
+        ),
+    ] = 1
+    factored: Annotated[
+        bool,
+        Field(description="Weigh leg moves as left x right combinations (weights_factored)"),
+    ] = True
+    inject: Annotated[
+        bool,
+        Field(
+            description="Add the refined pose to the filter's particles (the next frame starts "
+            "from it); off: only the output is refined"
+        ),
+    ] = True
+
+    @field_validator("range_overrides")
+    @classmethod
+    def _overrides(cls, v: dict[str, float]) -> dict[str, float]:
+        return _check_dof_keys(v, "range_overrides")
+
+
 class TrackerConfig(_Model):
     """Everything the tracking pipeline needs besides cameras, footage and a seed."""
 
@@ -459,6 +532,7 @@ class TrackerConfig(_Model):
     redetect: RedetectConfig = Field(default_factory=RedetectConfig)
     heading_check: HeadingCheckConfig = Field(default_factory=HeadingCheckConfig)
     leg_swap: LegSwapConfig = Field(default_factory=LegSwapConfig)
+    refine: RefineConfig = Field(default_factory=RefineConfig)
     limits_profile: Annotated[str, Field(description="tracker.dof limit profile")] = "walking"
     limits_overrides_deg: dict[str, tuple[float, float]] = {}
     reference_dt_s: Annotated[float, Field(gt=0, le=1)] = 0.05

@@ -456,6 +456,8 @@ class Tracker:
         pose, weight = self._redetect(pose, weight, dt)
         if c.origin.enabled and c.origin.after_filter:
             pose, weight = self._refine_origin(pose, weight, dt)
+        if c.refine.enabled:
+            pose, weight = self._refine_pose(pose, weight, dt)
         return pose, weight
 
     def _redetect(self, pose: np.ndarray, weight: float, dt: float) -> tuple[np.ndarray, float]:
@@ -488,6 +490,20 @@ class Tracker:
         self.filter.inject(res.poses[: rc.inject], res.weights[: rc.inject], reset_motion=True)
         log.debug("re-detected: weight %.3f -> %.3f", weight, res.best_weight)
         return res.best.copy(), float(res.best_weight)
+
+    def _refine_pose(self, pose: np.ndarray, weight: float, dt: float) -> tuple[np.ndarray, float]:
+        """Local coordinate search of the estimate (:mod:`tracker.refine`); joins the particles."""
+        from tracker.refine import refine_top
+
+        with _single_thread():
+            res = refine_top(
+                self._lik, self.filter, pose, weight, self.config, limits=self.limits, dt=dt
+            )
+        if not res.weight > weight:
+            return pose, weight
+        if self.config.refine.inject:
+            self.filter.inject(res.pose[None], np.array([res.weight]))
+        return res.pose.copy(), float(res.weight)
 
     def _refine_origin(
         self, pose: np.ndarray, weight: float, dt: float
