@@ -148,7 +148,7 @@ def test_config_validation_and_overrides() -> None:
         parse_tracker_config({"refine": {"range_overrides": {"l_toe": 3}}})
     with pytest.raises(TrackerConfigError, match="unknown key"):
         parse_tracker_config({"refine": {"sweep": 2}})
-    assert TrackerConfig().refine.enabled
+    assert not TrackerConfig().refine.enabled  # measured neutral: opt-in (docs/tracker.md)
 
 
 @pytest.fixture(scope="module")
@@ -180,7 +180,7 @@ def _track(clip: dict, refine: dict):
 def test_pipeline_refines_and_counts(walking_frames: dict, inject: bool) -> None:
     """A tracked frame's estimate is refined (counted); with ``inject`` it joins the particles."""
     off, _ = _track(walking_frames, {"enabled": False})
-    on, tr = _track(walking_frames, {"inject": inject})
+    on, tr = _track(walking_frames, {"enabled": True, "inject": inject})
     # legs (2 * 6 + 1)^2 combinations per level, two levels, plus the upper body
     assert on.evaluations >= off.evaluations + 2 * 13**2
     # (the floor constraint may move the root afterwards: it moves every particle's root too)

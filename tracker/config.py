@@ -447,7 +447,7 @@ class RefineConfig(_Model):
     the ranges shrink by ``shrink`` per level. The refined pose joins the filter's particles.
     """
 
-    enabled: Annotated[bool, Field(description="Refine the estimate after the filter")] = True
+    enabled: Annotated[bool, Field(description="Refine the estimate after the filter")] = False
     offsets: Annotated[
         int,
         Field(ge=2, le=12, description="Values per DOF and level (even: +-r, +-r/2, ...)"),
