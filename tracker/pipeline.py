@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from gaitwatch.conventions import SACRUM
+from gaitwatch.conventions import L_ANKLE, L_HEEL, L_TOE, R_ANKLE, R_HEEL, R_TOE, SACRUM
 from tracker.config import TrackerConfig
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, wrap_angle
 from tracker.filters import Filter, make_filter, select_distinct
@@ -124,7 +124,7 @@ def _single_thread():
     return _numba_threads(1)
 
 
-_FEET_POINTS = [13, 14, 15, 16, 17, 18]  # ankles, heels, toes (CONVENTIONS order)
+_FEET_POINTS = [L_ANKLE, R_ANKLE, L_HEEL, R_HEEL, L_TOE, R_TOE]
 
 
 def _continuity_choice(
