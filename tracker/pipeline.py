@@ -474,7 +474,8 @@ class Tracker:
         cfg = c.model_copy(
             update={"init": c.init.model_copy(update={"refine_best": rc.refine_best})}
         )
-        with _numba_threads(self.threads):
+        # Batches of a few hundred and of 7 poses: one thread (see _numba_threads).
+        with _single_thread():
             res = initial_search(
                 self._lik,
                 self.body,
