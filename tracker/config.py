@@ -314,13 +314,13 @@ class RedetectConfig(_Model):
     every_frames: Annotated[
         int, Field(ge=1, le=1000, description="Run on every n-th tracked frame")
     ] = 1
-    headings: Annotated[int, Field(ge=1, le=72, description="Headings tried")] = 5
+    headings: Annotated[int, Field(ge=1, le=72, description="Headings tried")] = 3
     span_deg: Annotated[
         float, Field(ge=0, le=180, description="Headings within +- this of the estimate's")
     ] = 30.0
     refine_best: Annotated[
         int, Field(ge=0, le=50, description="Best candidates refined by the origin search")
-    ] = 2
+    ] = 1
     margin: Annotated[
         float,
         Field(ge=0, le=1, description="Adopt when heavier than the estimate by more than this"),
