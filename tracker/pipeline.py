@@ -127,6 +127,23 @@ def _single_thread():
 _FEET_POINTS = [L_ANKLE, R_ANKLE, L_HEEL, R_HEEL, L_TOE, R_TOE]
 
 
+def _feet_distance(body, poses: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Mean distance (metres, (K,)) of each pose's ankles, heels and toes from ``reference``'s
+    (key points (19, 3))."""
+    feet = np.asarray(body.forward(poses))[:, _FEET_POINTS]
+    return np.linalg.norm(feet - reference[_FEET_POINTS], axis=2).mean(axis=1)
+
+
+def _tie_choice(weights: np.ndarray, distance: np.ndarray, tie: float) -> int:
+    """Index of the tie (weight >= (1 - tie) * max) with the smallest ``distance``; the
+    heaviest when no other weighs as much."""
+    w = np.asarray(weights, dtype=np.float64)
+    ok = np.flatnonzero(w >= (1.0 - tie) * w.max())
+    if ok.size <= 1:
+        return int(np.argmax(w))
+    return int(ok[int(np.argmin(distance[ok]))])
+
+
 def _continuity_choice(
     body, poses: np.ndarray, weights: np.ndarray, reference: np.ndarray, tie: float
 ) -> int:
@@ -150,12 +167,9 @@ def _continuity_choice(
         ``reference`` (physical continuity: a foot in stance does not slide on the floor).
     """
     w = np.asarray(weights, dtype=np.float64)
-    ok = np.flatnonzero(w >= (1.0 - tie) * w.max())
-    if ok.size <= 1:
+    if np.count_nonzero(w >= (1.0 - tie) * w.max()) <= 1:
         return int(np.argmax(w))
-    feet = np.asarray(body.forward(poses[ok]))[:, _FEET_POINTS]
-    d = np.linalg.norm(feet - reference[_FEET_POINTS], axis=2).mean(axis=1)
-    return int(ok[int(np.argmin(d))])
+    return _tie_choice(w, _feet_distance(body, poses, reference), tie)
 
 
 class _CountingLikelihood:
@@ -267,6 +281,10 @@ class Tracker:
         self._girth_frames_left = c.init.girth_frames
         self._masks: list[np.ndarray] = []
         self._tracked_frames = 0
+        #: The initial search's settings with re-detection's number of refined candidates.
+        self._redetect_config = c.model_copy(
+            update={"init": c.init.model_copy(update={"refine_best": c.redetect.refine_best})}
+        )
         if self._estimate_girth:
             self._girth_bodies[self.body.girth] = self.body
 
@@ -470,10 +488,6 @@ class Tracker:
         headings = pose[DOF["root_yaw"]] + (
             np.linspace(-span, span, rc.headings) if rc.headings > 1 else np.zeros(1)
         )
-        c = self.config
-        cfg = c.model_copy(
-            update={"init": c.init.model_copy(update={"refine_best": rc.refine_best})}
-        )
         # Batches of a few hundred and of 7 poses: one thread (see _numba_threads).
         with _single_thread():
             res = initial_search(
@@ -481,7 +495,7 @@ class Tracker:
                 self.body,
                 self.lik_cameras,
                 self._masks,
-                cfg,
+                self._redetect_config,
                 limits=self.limits,
                 dt=dt,
                 headings=headings,
@@ -689,10 +703,9 @@ class Tracker:
             The chosen candidate first.
         """
         ref = np.asarray(self.body.forward(backwards[None]))[0]
+        d = _feet_distance(self.body, poses, ref)
         idx = select_distinct(poses, weights, hc.feet_candidates)
-        k = idx[_continuity_choice(self.body, poses[idx], weights[idx], ref, hc.feet_tie)]
-        feet = np.asarray(self.body.forward(poses))[:, _FEET_POINTS]
-        d = np.linalg.norm(feet - ref[_FEET_POINTS], axis=2).mean(axis=1)
+        k = idx[_tie_choice(weights[idx], d[idx], hc.feet_tie)]
         keep = np.flatnonzero(d <= d[k] + hc.feet_margin_m)
         keep = np.concatenate([[k], keep[keep != k]])
         return poses[keep], weights[keep]
@@ -722,8 +735,8 @@ class Tracker:
         -------
         pose : ndarray (31,), weight : float
         """
-        feet = np.asarray(self.body.forward(poses))[:, _FEET_POINTS]
-        apart = np.linalg.norm(feet - feet[0], axis=2).mean(axis=1) > hc.mode_separation_m
+        first = np.asarray(self.body.forward(poses[:1]))[0]
+        apart = _feet_distance(self.body, poses, first) > hc.mode_separation_m
         modes = [np.flatnonzero(~apart), np.flatnonzero(apart)]
         modes = [m for m in modes if m.size]
         results = []

@@ -193,26 +193,16 @@ def refine_pose(
                 if is_legs and factored is not None:
                     cand, w, marg, moved = _weigh_legs(factored, best, dofs, r, offsets, low, high)
                     evaluations += w.size
-                    # Several parts of one leg (thigh, shank, foot) improving alone: combine.
-                    if np.count_nonzero(marg[1] > weight) > 1:
-                        comb = clamp(
-                            _combine(best, marg[0], marg[1], moved, weight)[None], low, high
-                        )
-                        wc = float(np.asarray(likelihood.weights(comb))[0])
-                        evaluations += 1
-                        cand = np.concatenate([cand, comb])
-                        w = np.append(w, wc)
-                    k = int(np.argmax(w))
-                    if w[k] > weight:
-                        best, weight = cand[k].copy(), float(w[k])
-                    continue
-                vals = best[dofs, None] + r[dofs, None] * offsets[None, :]
-                cand = clamp(_moves(best, dofs, vals), low, high)
-                w = np.asarray(likelihood.weights(cand), dtype=np.float64)
-                evaluations += w.size
-                moved = np.repeat(dofs, offsets.size)
-                comb = clamp(_combine(best, cand, w, moved, weight)[None], low, high)
-                if np.count_nonzero(w > weight) > 1:
+                    single = marg  # several parts of one leg improving alone: combine them
+                else:
+                    vals = best[dofs, None] + r[dofs, None] * offsets[None, :]
+                    cand = clamp(_moves(best, dofs, vals), low, high)
+                    w = np.asarray(likelihood.weights(cand), dtype=np.float64)
+                    evaluations += w.size
+                    moved = np.repeat(dofs, offsets.size)
+                    single = (cand, w)
+                if np.count_nonzero(single[1] > weight) > 1:
+                    comb = clamp(_combine(best, *single, moved, weight)[None], low, high)
                     wc = float(np.asarray(likelihood.weights(comb))[0])
                     evaluations += 1
                     cand = np.concatenate([cand, comb])
