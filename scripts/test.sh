@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Install gaitwatch with its test tools into .venv and run lint and the test suite.
+# Install gaitwatch with its test tools into .venv and run lint and the test suite (SQLite),
+# then the storage and API tests on PostgreSQL (scripts/test-postgres.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
@@ -11,3 +12,8 @@ fi
 .venv/bin/ruff check .
 .venv/bin/ruff format --check .
 .venv/bin/python -m pytest -q "$@"
+# The storage and API tests again on PostgreSQL (a throw-away local server), for the whole suite
+# only; skipped with a message where PostgreSQL's server programs are missing.
+if [ $# -eq 0 ] && [ "${GAITWATCH_SKIP_POSTGRES:-0}" != 1 ]; then
+  bash scripts/test-postgres.sh
+fi

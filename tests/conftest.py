@@ -27,3 +27,14 @@ def shared_file(shared_data: Path, rel: str) -> Path:
     if not p.is_file():
         pytest.skip(f"shared file {rel} not found under {shared_data}")
     return p
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Skip ``sqlite_only`` tests when the storage tests run on PostgreSQL (see
+    ``tests/service_helpers.py``)."""
+    if not os.environ.get("GAITWATCH_TEST_POSTGRES_URL"):
+        return
+    skip = pytest.mark.skip(reason="SQLite-only feature; the storage tests run on PostgreSQL")
+    for item in items:
+        if "sqlite_only" in item.keywords:
+            item.add_marker(skip)

@@ -2,12 +2,21 @@
 
 A migrated SQLite file is built once per session and copied for each test, so each test gets
 a real, empty, current database quickly.
+
+With ``GAITWATCH_TEST_POSTGRES_URL`` set to a PostgreSQL server URL whose user may create
+databases (e.g. ``postgresql+psycopg://gw@/postgres?host=/tmp/pg&port=55432``), the same tests
+run on PostgreSQL instead: the template is a migrated database and each test gets a copy made
+with ``CREATE DATABASE ... TEMPLATE``, dropped afterwards (``scripts/test-postgres.sh`` starts a
+throw-away server and does this). Tests of SQLite-only features are marked ``sqlite_only`` and
+skip there.
 """
 
 from __future__ import annotations
 
 import datetime as dt
+import os
 import shutil
+import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -17,7 +26,7 @@ from typing import Any
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
-from sqlalchemy import Engine, select
+from sqlalchemy import Engine, create_engine, make_url, select, text
 from sqlalchemy.orm import Session, sessionmaker
 
 from service.api.app import create_app
@@ -43,11 +52,66 @@ __all__ = [
 T0 = dt.datetime(2026, 3, 2, 9, 0, tzinfo=dt.UTC)
 
 
+POSTGRES_ENV = "GAITWATCH_TEST_POSTGRES_URL"
+
+
+def postgres_url() -> str | None:
+    """The PostgreSQL server URL the storage tests run on, or None for SQLite."""
+    return os.environ.get(POSTGRES_ENV) or None
+
+
+@dataclass
+class Template:
+    """A migrated, empty database that each test copies: a SQLite file or a PostgreSQL database."""
+
+    sqlite_path: Path | None = None
+    server_url: str | None = None
+    name: str = ""
+
+    def url_of(self, database: str) -> str:
+        assert self.server_url is not None
+        return make_url(self.server_url).set(database=database).render_as_string(False)
+
+    def _admin(self, sql: str) -> None:
+        e = create_engine(self.server_url, isolation_level="AUTOCOMMIT")
+        try:
+            with e.connect() as c:
+                c.execute(text(sql))
+        finally:
+            e.dispose()
+
+    @contextmanager
+    def copy(self, data: Path) -> Iterator[str]:
+        """A fresh copy for one test: its URL, dropped (PostgreSQL) when the block ends."""
+        if self.sqlite_path is not None:
+            path = data / "gaitwatch.sqlite3"
+            shutil.copy(self.sqlite_path, path)
+            yield f"sqlite:///{path}"
+            return
+        name = f"gw_{uuid.uuid4().hex[:12]}"
+        self._admin(f'CREATE DATABASE "{name}" TEMPLATE "{self.name}"')
+        try:
+            yield self.url_of(name)
+        finally:
+            self._admin(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
+
+
 @pytest.fixture(scope="session")
-def migrated_template(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("template") / "template.sqlite3"
-    upgrade(f"sqlite:///{path}")
-    return path
+def migrated_template(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Template]:
+    server = postgres_url()
+    if server is None:
+        path = tmp_path_factory.mktemp("template") / "template.sqlite3"
+        upgrade(f"sqlite:///{path}")
+        yield Template(sqlite_path=path)
+        return
+    tpl = Template(server_url=server, name=f"gw_template_{os.getpid()}")
+    tpl._admin(f'DROP DATABASE IF EXISTS "{tpl.name}" WITH (FORCE)')
+    tpl._admin(f'CREATE DATABASE "{tpl.name}"')
+    try:
+        upgrade(tpl.url_of(tpl.name))
+        yield tpl
+    finally:
+        tpl._admin(f'DROP DATABASE IF EXISTS "{tpl.name}" WITH (FORCE)')
 
 
 @pytest.fixture
@@ -58,10 +122,9 @@ def data_dir(tmp_path: Path) -> Path:
 
 
 @pytest.fixture
-def db_url(migrated_template: Path, data_dir: Path) -> str:
-    path = data_dir / "gaitwatch.sqlite3"
-    shutil.copy(migrated_template, path)
-    return f"sqlite:///{path}"
+def db_url(migrated_template: Template, data_dir: Path) -> Iterator[str]:
+    with migrated_template.copy(data_dir) as url:
+        yield url
 
 
 @pytest.fixture
@@ -99,11 +162,14 @@ def bearer(token: str) -> dict[str, str]:
 
 
 @contextmanager
-def build_world(data: Path, template: Path) -> Iterator[World]:
+def build_world(data: Path, template: Template) -> Iterator[World]:
     """A migrated database copied from ``template`` into ``data``, the app, residents, keys."""
     data.mkdir(parents=True, exist_ok=True)
-    shutil.copy(template, data / "gaitwatch.sqlite3")
-    settings = Settings(data_dir=data, database_url=f"sqlite:///{data / 'gaitwatch.sqlite3'}")
+    with template.copy(data) as url:
+        yield from _world(Settings(data_dir=data, database_url=url))
+
+
+def _world(settings: Settings) -> Iterator[World]:
     app = create_app(settings)
     sm = app.state.sessionmaker
     with sm() as s:
@@ -124,7 +190,7 @@ def build_world(data: Path, template: Path) -> Iterator[World]:
 
 
 @pytest.fixture
-def world(tmp_path: Path, migrated_template: Path) -> Iterator[World]:
+def world(tmp_path: Path, migrated_template: Template) -> Iterator[World]:
     """A fresh world per test (for tests that change data)."""
     with build_world(tmp_path / "world", migrated_template) as w:
         yield w
@@ -132,7 +198,7 @@ def world(tmp_path: Path, migrated_template: Path) -> Iterator[World]:
 
 @pytest.fixture(scope="module")
 def shared_world(
-    tmp_path_factory: pytest.TempPathFactory, migrated_template: Path
+    tmp_path_factory: pytest.TempPathFactory, migrated_template: Template
 ) -> Iterator[World]:
     """One world per test module, for tests that must not change anything."""
     with build_world(tmp_path_factory.mktemp("shared") / "world", migrated_template) as w:

@@ -92,6 +92,7 @@ def test_delete_resident_erases_measurements_and_pose_logs(world: World, tmp_pat
     assert world.client.get("/residents", headers=world.care_a).json()["total"] == 0
 
 
+@pytest.mark.sqlite_only
 def test_backup_is_consistent_while_writing(world: World, tmp_path: Path) -> None:
     engine = world.client.app.state.engine
     stop = threading.Event()
@@ -129,6 +130,7 @@ def test_backup_is_consistent_while_writing(world: World, tmp_path: Path) -> Non
         con.close()
 
 
+@pytest.mark.sqlite_only
 def test_backup_refuses_bad_targets(world: World, tmp_path: Path) -> None:
     engine = world.client.app.state.engine
     out = backup_sqlite(engine, tmp_path / "b.sqlite3")

@@ -22,6 +22,8 @@ from service.db.migrate import (
 )
 from service.db.models import Base
 from service.db.session import make_engine
+from tests.service_helpers import *  # noqa: F403  (fixtures)
+from tests.service_helpers import postgres_url
 
 
 def test_upgrade_from_empty_matches_models(tmp_path: Path) -> None:
@@ -113,3 +115,27 @@ def test_offline_sql_names_no_sqlite_only_features(tmp_path: Path, capsys) -> No
     assert "CREATE TABLE residents" in sql
     assert "TIMESTAMP WITHOUT TIME ZONE" in sql
     assert "PRAGMA" not in sql and "AUTOINCREMENT" not in sql
+
+
+@pytest.mark.skipif(
+    postgres_url() is None, reason="PostgreSQL only (set GAITWATCH_TEST_POSTGRES_URL)"
+)
+def test_postgres_schema_matches_models_and_round_trips(db_url: str) -> None:
+    """On PostgreSQL: the migrated schema equals the models (types too), and the migration
+    goes down to empty and up again."""
+    engine = make_engine(db_url, pool_size=1)
+    try:
+        assert engine.dialect.name == "postgresql"
+        assert current_revision(engine) == head_revision()
+        with engine.connect() as conn:
+            diff = compare_metadata(
+                MigrationContext.configure(conn, opts={"compare_type": True}), Base.metadata
+            )
+        assert diff == [], f"models and migrations differ on PostgreSQL: {diff}"
+        command.downgrade(alembic_config(db_url), "base")
+        assert set(inspect(engine).get_table_names()) <= {"alembic_version"}
+        assert upgrade(db_url) is None  # nothing to back up on a server database
+        assert current_revision(engine) == head_revision()
+        assert set(Base.metadata.tables) <= set(inspect(engine).get_table_names())
+    finally:
+        engine.dispose()
