@@ -228,6 +228,7 @@ def initial_search(
             dt=dt,
             reference_dt=config.reference_dt_s,
             range_scale=max(1.0, ic.position_step_m / max(config.origin.range_xy_m, 1e-9)),
+            weight=float(weights[i]),
         )
         evaluations += res.evaluations
         refined.append(res.pose)

@@ -48,9 +48,14 @@ from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, wrap_angle
 from tracker.filters import Filter, make_filter, select_distinct
 from tracker.init import floor_point, initial_search
 from tracker.origin import search_origin
+from tracker.raster import prefer_passive_openmp
 from tracker.segmentation import Segmentation, Segmenter, keep_blobs
 
 log = logging.getLogger(__name__)
+
+#: Idle numba (OpenMP) threads sleep rather than spin; must be decided before numba starts its
+#: threads (the track command sets their number after importing this module).
+_PASSIVE_OPENMP = prefer_passive_openmp()
 
 NOBODY_IN_VIEW = "nobody in view"
 NO_FLOOR_POINT = "silhouette does not meet the floor in any camera"
@@ -105,6 +110,8 @@ def _numba_threads(n: int):
     of single poses) lose more to thread synchronisation than they gain, and on a busy machine
     each parallel call can wait milliseconds for the other thread to be scheduled; only the
     large batches (the filter's thousands of particles, the initial search) use every thread.
+    The idle threads sleep rather than spin (:func:`tracker.raster.prefer_passive_openmp`):
+    spinning ones were scheduled late on a busy machine, which had made 2 threads slower than 1.
     """
     import numba
 
@@ -266,6 +273,12 @@ class Tracker:
 
         #: numba threads for the large batches (the others run on one thread).
         self.threads = numba.get_num_threads()
+        if self.threads > 1 and not _PASSIVE_OPENMP and numba.threading_layer() == "omp":
+            log.info(
+                "numba's OpenMP threads spin while idle (OMP_WAIT_POLICY is not PASSIVE): "
+                "on a busy machine %d threads can be slower than one",
+                self.threads,
+            )
         # track state
         self.prev_pose: np.ndarray | None = None
         #: Key points (19, 3) of the previous estimate (the leg-identity reference).
@@ -534,6 +547,7 @@ class Tracker:
                 dt=dt,
                 reference_dt=c.reference_dt_s,
                 range_scale=c.origin.after_filter_range_scale,
+                weight=weight,
             )
         if not res.weight > weight:
             return pose, weight
