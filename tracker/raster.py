@@ -23,6 +23,8 @@ view costs an atomic reference-count update, which parallel threads would fight 
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Final
 
 import numba as nb
@@ -60,6 +62,25 @@ def prefer_passive_openmp() -> bool:
 
 
 prefer_passive_openmp()
+
+
+@contextmanager
+def numba_threads(n: int) -> Iterator[None]:
+    """Run the numba kernels inside the block on ``n`` threads (restored afterwards).
+
+    ``n`` is capped to ``[1, numba.config.NUMBA_NUM_THREADS]``.
+    """
+    old = nb.get_num_threads()
+    n = max(1, min(int(n), nb.config.NUMBA_NUM_THREADS))
+    if n == old:
+        yield
+        return
+    nb.set_num_threads(n)
+    try:
+        yield
+    finally:
+        nb.set_num_threads(old)
+
 
 Z_NEAR: Final[float] = 0.05  # metres
 FD_STEP: Final[float] = 1e-6  # forward-difference step of the distortion Jacobian
