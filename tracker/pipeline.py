@@ -517,6 +517,8 @@ class Tracker:
     ) -> tuple[np.ndarray, float]:
         """The search of :meth:`_redetect`."""
         rc = self.config.redetect
+        if not np.all(np.isfinite(self._floor_now)):
+            return pose, weight  # no floor point under this frame's silhouettes
         span = np.radians(rc.span_deg)
         headings = pose[DOF["root_yaw"]] + (
             np.linspace(-span, span, rc.headings) if rc.headings > 1 else np.zeros(1)
@@ -533,6 +535,7 @@ class Tracker:
             self._redetect_config,
             limits=self.limits,
             dt=dt,
+            floor_xy=self._floor_now,  # floor_point(self.lik_cameras, self._masks)
             headings=headings,
             configs=self._redetect_configs[1],
             threads=self.threads,
