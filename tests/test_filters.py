@@ -246,12 +246,66 @@ def test_origin_search_recovers_offset_root() -> None:
     start[DOF["root_yaw"]] += np.radians(8.0)
     lik = ToyLikelihood(truth)
     res = search_origin(lik, start, OriginSearchConfig(), limits=LIMITS)
-    assert res.evaluations == 6 * 2 * 7 == lik.evaluations
+    # 12 grids of 7; each grid after the first reuses the weight of its zero offset (best)
+    assert res.evaluations == 6 * 2 * 7 - 11 == lik.evaluations
     assert abs(res.pose[DOF["root_x"]] - 0.8) < 0.02
     assert abs(res.pose[DOF["root_y"]] + 0.4) < 0.02
     assert abs(np.degrees(res.pose[DOF["root_yaw"]]) - 30.0) < 2.0
     # body parts held fixed
     assert np.array_equal(res.pose[6:], start[6:])
+
+
+def _origin_search_weighing_everything(lik, pose, config, dt, velocity_xy):
+    """The origin search as first written: every grid value weighed (the reference)."""
+    from tracker.dof import clamp
+    from tracker.origin import ORIGIN_ORDER, _ranges
+
+    low, high = LIMITS
+    best = pose.copy()
+    best[[0, 1]] += config.velocity_damping * velocity_xy * dt
+    clamp(best[None], low, high)
+    offsets = np.linspace(-1.0, 1.0, config.steps)
+    offsets = offsets[np.argsort(np.abs(offsets), kind="stable")]
+    ranges = _ranges(config, dt / 0.05)
+    weight = None
+    for _ in range(config.passes):
+        for name in ORIGIN_ORDER:
+            r = ranges[name]
+            for _level in range(config.levels):
+                cand = np.repeat(best[None], offsets.size, axis=0)
+                cand[:, DOF[name]] = best[DOF[name]] + offsets * r
+                clamp(cand, low, high)
+                w = lik.weights(cand)
+                k = int(np.argmax(w))
+                best, weight = cand[k].copy(), float(w[k])
+                r *= config.shrink
+    return best, weight
+
+
+@pytest.mark.parametrize("known", [False, True])
+def test_origin_search_reusing_weights_is_bit_identical(known: bool) -> None:
+    """Reusing the zero offset's weight (and the caller's) changes nothing but the count."""
+    truth = _truth(0.0)
+    truth[DOF["root_x"]], truth[DOF["root_yaw"]] = 0.5, np.radians(-20.0)
+    # coarse toy weights: ties between grid values, the case where reuse could pick another
+    coarse = ToyLikelihood(truth)
+    coarse.weights = lambda p: np.round(ToyLikelihood.weights(coarse, p), 2)  # type: ignore[method-assign]
+    rng = np.random.default_rng(3)
+    for trial in range(6):
+        start = truth.copy()
+        start[list(ROOT_DOFS)] += rng.normal(0.0, [0.05, 0.05, 0.02, 0.1, 0.05, 0.05])
+        start = np.clip(start, *LIMITS)  # a start outside the limits is moved: weight unknown
+        cfg = OriginSearchConfig(levels=1 + trial % 3, passes=1 + trial % 2)
+        vel = np.zeros(2) if known else rng.normal(0.0, 0.3, 2)
+        ref_pose, ref_w = _origin_search_weighing_everything(coarse, start, cfg, 0.05, vel)
+        w0 = float(coarse.weights(start[None])[0]) if known else None
+        coarse.evaluations = 0
+        res = search_origin(coarse, start, cfg, limits=LIMITS, velocity_xy=vel, weight=w0)
+        grids = 6 * cfg.levels * cfg.passes
+        assert np.array_equal(res.pose, ref_pose) and res.weight == ref_w
+        assert res.evaluations == coarse.evaluations
+        # at most one reuse per grid; most grids reuse (the heading's wrap may move it by a bit)
+        assert grids * 6 <= res.evaluations <= grids * 7 - grids // 2
 
 
 # -- IPF extensions (defaults beyond the published method; docs/tracker.md) -------------------

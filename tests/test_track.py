@@ -495,3 +495,29 @@ def test_real_footage_smoke(shared_data: Path, tmp_path: Path) -> None:
     assert p[:, :, 2].min() > -0.05  # floor constraint
     sacrum_z = p[:, SACRUM, 2]
     assert np.mean((sacrum_z > 0.75) & (sacrum_z < 1.1)) > 0.9  # measured 0.91-0.97 m
+
+
+def test_redetect_skipped_while_stable_still_catches_a_slide(clip: dict) -> None:
+    """Re-detection is skipped while the weight holds (at most max_skipped frames in a row) and
+    runs, and recovers the track, when a slide off the person drops the weight."""
+    tracker = _tracker_after_first_frame(clip)
+    rc = tracker.config.redetect
+    searched = []
+    search = tracker._redetect_search
+
+    def recording(pose, weight, dt):
+        searched.append(tracker._tracked_frames)
+        return search(pose, weight, dt)
+
+    tracker._redetect_search = recording
+    for i in range(1, 12):
+        tracker.process(i, i / FPS, clip["frames"][i])
+    assert searched[: rc.stable_frames] == list(range(1, rc.stable_frames + 1))
+    assert len(searched) < 11  # some stable frames skipped ...
+    assert max(np.diff(searched)) <= rc.max_skipped + 1  # ... never more than max_skipped
+    n = len(searched)
+    tracker.filter.particles[:, 1] += 0.6
+    tracker.prev_pose[1] += 0.6
+    res = tracker.process(12, 12 / FPS, clip["frames"][12])
+    assert len(searched) == n + 1
+    assert np.linalg.norm(res.joints[2, :2] - clip["truth"][12, 2, :2]) < 0.1

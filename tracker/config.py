@@ -328,6 +328,22 @@ class RedetectConfig(_Model):
     inject: Annotated[
         int, Field(ge=1, le=100, description="Best candidates added to the particle set")
     ] = 9
+    stable_ratio: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="Skip re-detection while the estimate weighs at least this fraction of "
+            "the heaviest estimate of the last stable_frames tracked frames (a track that "
+            "slides off loses weight); 0: never skip",
+        ),
+    ] = 0.98
+    stable_frames: Annotated[
+        int, Field(ge=1, le=100, description="Tracked frames the stable_ratio looks back over")
+    ] = 5
+    max_skipped: Annotated[
+        int, Field(ge=0, le=1000, description="At most this many frames in a row skipped")
+    ] = 3
 
 
 class HeadingCheckConfig(_Model):

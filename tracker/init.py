@@ -18,6 +18,7 @@ every candidate sorted by weight, to seed the filter (:meth:`tracker.filters.Fil
 from __future__ import annotations
 
 from collections.abc import Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +28,7 @@ from tracker.config import TrackerConfig
 from tracker.dof import DOF, N_DOF, clamp
 from tracker.filters.base import Likelihood, select_distinct
 from tracker.origin import search_origin
+from tracker.raster import numba_threads
 
 _FEET = [L_HEEL, R_HEEL, L_TOE, R_TOE]
 
@@ -165,6 +167,8 @@ def initial_search(
     dt: float = 0.05,
     floor_xy: np.ndarray | None = None,
     headings: np.ndarray | None = None,
+    configs: np.ndarray | None = None,
+    threads: int | None = None,
 ) -> InitResult | None:
     """Weigh the grid of plausible configurations; ``None`` when no floor point is found.
 
@@ -183,6 +187,13 @@ def initial_search(
         Use this floor point instead of the silhouettes'.
     headings : ndarray, optional
         Headings (radians) to try instead of ``config.init.headings`` values over the circle.
+    configs : ndarray (K, 31), optional
+        ``body_configurations(body, config, limits)[0]`` when the caller keeps them (they are
+        the same every frame).
+    threads : int, optional
+        numba threads for weighing the grid (one batch of hundreds or thousands of poses); the
+        refinement's batches of a few poses then run on one thread. Default: every batch on the
+        threads the caller set.
     """
     ic = config.init
     if floor_xy is None:
@@ -190,7 +201,8 @@ def initial_search(
     if floor_xy is None:
         return None
     low, high = limits
-    configs, _ = body_configurations(body, config, limits)
+    if configs is None:
+        configs, _ = body_configurations(body, config, limits)
     r = ic.position_radius_m
     k = int(np.floor(r / ic.position_step_m + 1e-9))
     offs = np.arange(-k, k + 1) * ic.position_step_m
@@ -215,20 +227,23 @@ def initial_search(
     clamp(cand, low, high)
     weights = np.empty(cand.shape[0])
     chunk = 4096
-    for s in range(0, cand.shape[0], chunk):
-        weights[s : s + chunk] = likelihood.weights(cand[s : s + chunk])
+    with nullcontext() if threads is None else numba_threads(threads):
+        for s in range(0, cand.shape[0], chunk):
+            weights[s : s + chunk] = likelihood.weights(cand[s : s + chunk])
     evaluations = cand.shape[0]
     refined, refined_w = [], []
     for i in select_distinct(cand, weights, ic.refine_best):
-        res = search_origin(
-            likelihood,
-            cand[i],
-            config.origin.model_copy(update={"levels": max(3, config.origin.levels)}),
-            limits=limits,
-            dt=dt,
-            reference_dt=config.reference_dt_s,
-            range_scale=max(1.0, ic.position_step_m / max(config.origin.range_xy_m, 1e-9)),
-        )
+        with nullcontext() if threads is None else numba_threads(1):
+            res = search_origin(
+                likelihood,
+                cand[i],
+                config.origin.model_copy(update={"levels": max(3, config.origin.levels)}),
+                limits=limits,
+                dt=dt,
+                reference_dt=config.reference_dt_s,
+                range_scale=max(1.0, ic.position_step_m / max(config.origin.range_xy_m, 1e-9)),
+                weight=float(weights[i]),
+            )
         evaluations += res.evaluations
         refined.append(res.pose)
         refined_w.append(res.weight)

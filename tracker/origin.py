@@ -7,7 +7,9 @@ and scaled with ``dt / 0.05``) is weighed with the likelihood, the best value is
 range shrinks by ``shrink`` for the next refinement. x and y may first be moved by a damped
 constant-velocity prediction.
 
-Cost: ``passes * 6 * levels * steps`` likelihood evaluations per frame (84 with the defaults).
+Cost: ``passes * 6 * levels * steps`` likelihood evaluations per frame (84 with the defaults),
+less one per grid after the first: its zero offset is the current best, whose weight is known (a
+caller that knows the start pose's weight on this frame's silhouettes saves the first one too).
 """
 
 from __future__ import annotations
@@ -72,6 +74,7 @@ def search_origin(
     reference_dt: float = 0.05,
     velocity_xy: np.ndarray | None = None,
     range_scale: float = 1.0,
+    weight: float | None = None,
 ) -> OriginResult:
     """Re-estimate the root DOFs of ``pose`` (31,) one dimension at a time.
 
@@ -90,6 +93,17 @@ def search_origin(
         Recent root velocity in m/s for the damped constant-velocity prediction of x, y.
     range_scale : float
         Extra factor on every range (e.g. larger when refining an initialisation candidate).
+    weight : float, optional
+        ``likelihood.weights(pose)`` on the current silhouettes when the caller has it. The
+        result is the same with or without it, with one evaluation fewer when the first grid's
+        zero offset is ``pose`` itself (no velocity prediction, inside the limits).
+
+    Notes
+    -----
+    Each grid's zero offset is the current best pose (its root value plus ``0 * r``, clamped):
+    when it equals the pose weighed before bit for bit, that weight is reused instead of
+    weighing it again. The likelihood is deterministic, so the poses and weights are the same,
+    bit for bit, as weighing every grid value.
     """
     low, high = limits
     best = np.array(pose, dtype=np.float64).copy()
@@ -98,13 +112,18 @@ def search_origin(
             config.velocity_damping * np.asarray(velocity_xy) * dt
         )
     clamp(best[None], low, high)
+    # A pose whose weight is known: the caller's start pose, then each grid's best.
+    known_pose = np.array(pose, dtype=np.float64)
     ranges = _ranges(config, (dt / reference_dt) * range_scale)
     offsets = np.linspace(-1.0, 1.0, config.steps)
     # Ties go to the value closest to the current one: order candidates by |offset|.
     order = np.argsort(np.abs(offsets), kind="stable")
     offsets = offsets[order]
+    # The zero offset (first after the sort, when the number of steps is odd) is best itself.
+    zero_first = bool(offsets[0] == 0.0)
+    known_weight = weight
     evaluations = 0
-    weight = None
+    w = np.empty(offsets.size)
     for _ in range(config.passes):
         for name in ORIGIN_ORDER:
             r = ranges[name]
@@ -115,13 +134,19 @@ def search_origin(
                 cand = np.repeat(best[None], offsets.size, axis=0)
                 cand[:, j] = best[j] + offsets * r
                 clamp(cand, low, high)
-                w = np.asarray(likelihood.weights(cand), dtype=np.float64)
-                evaluations += cand.shape[0]
+                if zero_first and known_weight is not None and np.array_equal(cand[0], known_pose):
+                    w[0] = known_weight
+                    w[1:] = likelihood.weights(cand[1:])
+                    evaluations += cand.shape[0] - 1
+                else:
+                    w[:] = likelihood.weights(cand)
+                    evaluations += cand.shape[0]
                 k = int(np.argmax(w))
                 best = cand[k].copy()
-                weight = float(w[k])
+                known_pose = best
+                known_weight = weight = float(w[k])
                 r *= config.shrink
-    if weight is None:
+    if weight is None or not np.array_equal(best, known_pose):
         weight = float(np.asarray(likelihood.weights(best[None]))[0])
         evaluations += 1
     return OriginResult(pose=best, weight=weight, evaluations=evaluations)

@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import cv2
@@ -46,11 +45,16 @@ from gaitwatch.conventions import L_ANKLE, L_HEEL, L_TOE, R_ANKLE, R_HEEL, R_TOE
 from tracker.config import TrackerConfig
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, wrap_angle
 from tracker.filters import Filter, make_filter, select_distinct
-from tracker.init import floor_point, initial_search
+from tracker.init import body_configurations, floor_point, initial_search
 from tracker.origin import search_origin
+from tracker.raster import numba_threads, prefer_passive_openmp
 from tracker.segmentation import Segmentation, Segmenter, keep_blobs
 
 log = logging.getLogger(__name__)
+
+#: Idle numba (OpenMP) threads sleep rather than spin; must be decided before numba starts its
+#: threads (the track command sets their number after importing this module).
+_PASSIVE_OPENMP = prefer_passive_openmp()
 
 NOBODY_IN_VIEW = "nobody in view"
 NO_FLOOR_POINT = "silhouette does not meet the floor in any camera"
@@ -97,27 +101,18 @@ class FrameResult:
         return self.pose is not None
 
 
-@contextmanager
 def _numba_threads(n: int):
     """Run the numba kernels inside the block on ``n`` threads (restored afterwards).
 
     Small batches (the origin search weighs 12 batches of 7 poses per frame; forward kinematics
     of single poses) lose more to thread synchronisation than they gain, and on a busy machine
     each parallel call can wait milliseconds for the other thread to be scheduled; only the
-    large batches (the filter's thousands of particles, the initial search) use every thread.
+    large batches (the filter's thousands of particles, the grids of the initial search and of
+    re-detection) use every thread. The idle threads sleep rather than spin
+    (:func:`tracker.raster.prefer_passive_openmp`): spinning ones were scheduled late on a busy
+    machine, which had made 2 threads slower than 1. See :func:`tracker.raster.numba_threads`.
     """
-    import numba
-
-    old = numba.get_num_threads()
-    n = max(1, min(int(n), numba.config.NUMBA_NUM_THREADS))
-    if n == old:
-        yield
-        return
-    numba.set_num_threads(n)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(old)
+    return numba_threads(n)
 
 
 def _single_thread():
@@ -266,6 +261,12 @@ class Tracker:
 
         #: numba threads for the large batches (the others run on one thread).
         self.threads = numba.get_num_threads()
+        if self.threads > 1 and not _PASSIVE_OPENMP and numba.threading_layer() == "omp":
+            log.info(
+                "numba's OpenMP threads spin while idle (OMP_WAIT_POLICY is not PASSIVE): "
+                "on a busy machine %d threads can be slower than one",
+                self.threads,
+            )
         # track state
         self.prev_pose: np.ndarray | None = None
         #: Key points (19, 3) of the previous estimate (the leg-identity reference).
@@ -281,6 +282,11 @@ class Tracker:
         self._girth_frames_left = c.init.girth_frames
         self._masks: list[np.ndarray] = []
         self._tracked_frames = 0
+        #: Weights of the estimates at the last re-detection points; skipped frames in a row.
+        self._redetect_weights: list[float] = []
+        self._redetect_skipped = 0
+        #: (body, its body configurations) of the last re-detection.
+        self._redetect_configs: tuple[object, np.ndarray] | None = None
         #: The initial search's settings with re-detection's number of refined candidates.
         self._redetect_config = c.model_copy(
             update={"init": c.init.model_copy(update={"refine_best": c.redetect.refine_best})}
@@ -479,27 +485,61 @@ class Tracker:
         return pose, weight
 
     def _redetect(self, pose: np.ndarray, weight: float, dt: float) -> tuple[np.ndarray, float]:
-        """A reduced initial search at this frame's silhouettes; adopt if clearly heavier."""
+        """A reduced initial search at this frame's silhouettes; adopt if clearly heavier.
+
+        Skipped (``redetect.stable_ratio``) while the estimate weighs about as much as the
+        heaviest of the last ``stable_frames`` estimates, at most ``max_skipped`` frames in a
+        row: a search that is not adopted leaves the estimate and the particles as they are, and
+        the searches that are adopted follow a loss of weight (a track sliding off the person).
+        """
         rc = self.config.redetect
         self._tracked_frames += 1
         if not rc.enabled or self._tracked_frames % rc.every_frames:
             return pose, weight
+        recent = self._redetect_weights[-rc.stable_frames :]
+        if (
+            rc.stable_ratio > 0
+            and self._redetect_skipped < rc.max_skipped
+            and len(recent) == rc.stable_frames
+            and weight >= rc.stable_ratio * max(recent)
+        ):
+            # High and stable: a re-detection that is not adopted changes nothing.
+            self._redetect_skipped += 1
+            self._redetect_weights = [*recent, weight]
+            return pose, weight
+        self._redetect_skipped = 0
+        pose, weight = self._redetect_search(pose, weight, dt)
+        self._redetect_weights = [*recent, weight]
+        return pose, weight
+
+    def _redetect_search(
+        self, pose: np.ndarray, weight: float, dt: float
+    ) -> tuple[np.ndarray, float]:
+        """The search of :meth:`_redetect`."""
+        rc = self.config.redetect
+        if not np.all(np.isfinite(self._floor_now)):
+            return pose, weight  # no floor point under this frame's silhouettes
         span = np.radians(rc.span_deg)
         headings = pose[DOF["root_yaw"]] + (
             np.linspace(-span, span, rc.headings) if rc.headings > 1 else np.zeros(1)
         )
-        # Batches of a few hundred and of 7 poses: one thread (see _numba_threads).
-        with _single_thread():
-            res = initial_search(
-                self._lik,
-                self.body,
-                self.lik_cameras,
-                self._masks,
-                self._redetect_config,
-                limits=self.limits,
-                dt=dt,
-                headings=headings,
-            )
+        if self._redetect_configs is None or self._redetect_configs[0] is not self.body:
+            configs, _ = body_configurations(self.body, self._redetect_config, self.limits)
+            self._redetect_configs = (self.body, configs)
+        # The grid (hundreds of poses) on every thread, the refinement's 7 poses on one.
+        res = initial_search(
+            self._lik,
+            self.body,
+            self.lik_cameras,
+            self._masks,
+            self._redetect_config,
+            limits=self.limits,
+            dt=dt,
+            floor_xy=self._floor_now,  # floor_point(self.lik_cameras, self._masks)
+            headings=headings,
+            configs=self._redetect_configs[1],
+            threads=self.threads,
+        )
         if res is None or not res.best_weight > weight + rc.margin:
             return pose, weight
         self.filter.inject(res.poses[: rc.inject], res.weights[: rc.inject], reset_motion=True)
@@ -534,6 +574,7 @@ class Tracker:
                 dt=dt,
                 reference_dt=c.reference_dt_s,
                 range_scale=c.origin.after_filter_range_scale,
+                weight=weight,
             )
         if not res.weight > weight:
             return pose, weight
