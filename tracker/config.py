@@ -372,6 +372,14 @@ class HeadingCheckConfig(_Model):
     search is re-run with headings within ``span_deg`` of the walking direction at the current
     position; its result replaces the track when it weighs at least ``accept_ratio`` times the
     current estimate. People seldom walk backwards.
+
+    Turn following (``turn_*``): when the heading is more than ``turn_angle_deg`` (and at most
+    ``max_angle_deg``) off the walking direction of the silhouettes' floor points, the reduced
+    initial search runs at headings around the walking direction (centred ``turn_lead_deg``
+    beyond it: the body turns ahead of its path); when its best weighs at least
+    ``turn_trial_ratio`` times the estimate, one filter step refines those candidates and the
+    result replaces the estimate if heavier by ``turn_margin`` (else the particle set is
+    restored). No cooldown: a turn lasts several frames.
     """
 
     enabled: bool = True
@@ -421,7 +429,7 @@ class HeadingCheckConfig(_Model):
             "turn_span_deg of the walking direction (the re-detection grid); adopt a result "
             "heavier by turn_margin. 0: off",
         ),
-    ] = 0.0
+    ] = 25.0
     turn_source: Annotated[
         Literal["silhouette", "estimate"],
         Field(description="Turn following: path giving the walking direction (as source)"),
