@@ -270,6 +270,38 @@ class InitConfig(_Model):
         int, Field(ge=0, le=50, description="Best candidates refined by the origin search")
     ] = 4
     max_candidates: Annotated[int, Field(ge=10, le=1_000_000)] = 20_000
+    both_headings: Annotated[
+        bool,
+        Field(
+            description="Keep both heading hypotheses after an initialisation (a silhouette "
+            "looks alike from the front and the back): the candidates facing within 90 deg of "
+            "the best and the others each seed a filter and are tracked side by side until "
+            "the walking direction (heading_check's source and criteria) decides, or the "
+            "weight clearly does; until then the heavier one is the estimate",
+        ),
+    ] = False
+    both_headings_ratio: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="both_headings: keep the opposite hypothesis when its best candidate "
+            "weighs at least this fraction of the best",
+        ),
+    ] = 0.8
+    both_headings_drop: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="both_headings: drop the lighter hypothesis when it weighs less than "
+            "(1 - this) times the heavier",
+        ),
+    ] = 0.1
+    both_headings_max_s: Annotated[
+        float,
+        Field(gt=0, le=60, description="both_headings: keep the heavier after this long"),
+    ] = 2.0
     girths: Annotated[
         tuple[float, ...],
         Field(
@@ -356,6 +388,14 @@ class HeadingCheckConfig(_Model):
     search is re-run with headings within ``span_deg`` of the walking direction at the current
     position; its result replaces the track when it weighs at least ``accept_ratio`` times the
     current estimate. People seldom walk backwards.
+
+    Turn following (``turn_*``): when the heading is more than ``turn_angle_deg`` (and at most
+    ``max_angle_deg``) off the walking direction of the silhouettes' floor points, the reduced
+    initial search runs at headings around the walking direction (centred ``turn_lead_deg``
+    beyond it: the body turns ahead of its path); when its best weighs at least
+    ``turn_trial_ratio`` times the estimate, one filter step refines those candidates and the
+    result replaces the estimate if heavier by ``turn_margin`` (else the particle set is
+    restored). No cooldown: a turn lasts several frames.
     """
 
     enabled: bool = True
@@ -395,6 +435,60 @@ class HeadingCheckConfig(_Model):
             "candidate (the former behaviour)",
         ),
     ] = "feet"
+    turn_angle_deg: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=180,
+            description="Turn following: when the heading is more than this (and at most "
+            "max_angle_deg) off the walking direction, search turn_headings headings within "
+            "turn_span_deg of the walking direction (the re-detection grid); adopt a result "
+            "heavier by turn_margin. 0: off",
+        ),
+    ] = 25.0
+    turn_source: Annotated[
+        Literal["silhouette", "estimate"],
+        Field(description="Turn following: path giving the walking direction (as source)"),
+    ] = "silhouette"
+    turn_window_s: Annotated[
+        float, Field(gt=0, le=10, description="Turn following: walking-direction window")
+    ] = 0.4
+    turn_lead_deg: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=90,
+            description="Turn following: the headings are centred this much beyond the walking "
+            "direction, away from the estimate's heading (the body turns ahead of its path)",
+        ),
+    ] = 15.0
+    turn_span_deg: Annotated[
+        float, Field(ge=0, le=180, description="Turn following: +- headings around the centre")
+    ] = 30.0
+    turn_headings: Annotated[
+        int, Field(ge=1, le=72, description="Turn following: headings tried")
+    ] = 5
+    turn_refine: Annotated[
+        bool,
+        Field(
+            description="Turn following: refine the turned candidates with one filter step "
+            "before comparing (the coarse grid's legs rarely beat the refined estimate); the "
+            "particle set is restored when the turn is not adopted",
+        ),
+    ] = True
+    turn_trial_ratio: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=2,
+            description="Turn following: refine (turn_refine) only when the grid's best weighs "
+            "at least this fraction of the estimate (the refinement costs a filter step)",
+        ),
+    ] = 0.92
+    turn_margin: Annotated[
+        float,
+        Field(ge=0, le=1, description="Turn following: adopt when heavier by more than this"),
+    ] = 0.01
     feet_tie: Annotated[
         float, Field(ge=0, le=1, description="leg_choice feet: relative weight tolerance")
     ] = 0.2

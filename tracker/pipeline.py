@@ -119,6 +119,15 @@ def _single_thread():
     return _numba_threads(1)
 
 
+def _capped_velocity(pose: np.ndarray, prev: np.ndarray, dt: float) -> np.ndarray:
+    """Root velocity (m/s, (2,)) from ``prev`` to ``pose`` over ``dt``, capped at a run."""
+    v = (pose[:2] - prev[:2]) / dt
+    speed = float(np.hypot(*v))
+    if speed > _MAX_SPEED_M_S:
+        v *= _MAX_SPEED_M_S / speed
+    return v
+
+
 _FEET_POINTS = [L_ANKLE, R_ANKLE, L_HEEL, R_HEEL, L_TOE, R_TOE]
 
 
@@ -165,6 +174,20 @@ def _continuity_choice(
     if np.count_nonzero(w >= (1.0 - tie) * w.max()) <= 1:
         return int(np.argmax(w))
     return _tie_choice(w, _feet_distance(body, poses, reference), tie)
+
+
+@dataclass
+class _Hypothesis:
+    """The opposite heading hypothesis, tracked alongside the main one from an initialisation
+    until the walking direction (or the weight) decides (``config.init.both_headings``)."""
+
+    filter: Filter
+    pose: np.ndarray
+    weight: float
+    joints: np.ndarray
+    velocity_xy: np.ndarray
+    path: list = field(default_factory=list)
+    age_s: float = 0.0
 
 
 class _CountingLikelihood:
@@ -279,6 +302,9 @@ class Tracker:
         self._path: list[tuple[float, float, float, float, float]] = []
         self._floor_now = np.full(2, np.nan)
         self._heading_checked_until = -np.inf
+        #: The opposite heading hypothesis after an initialisation (init.both_headings).
+        self._alt: _Hypothesis | None = None
+        self._time_now = 0.0
         self._girth_frames_left = c.init.girth_frames
         self._masks: list[np.ndarray] = []
         self._tracked_frames = 0
@@ -332,6 +358,7 @@ class Tracker:
         fp = floor_point(self.lik_cameras, masks)
         self._floor_now = np.full(2, np.nan) if fp is None else np.asarray(fp, dtype=np.float64)
         dt = self._dt(time_s)
+        self._time_now = float(time_s)
         if self.need_init:
             status = "initialised" if self.prev_time is None else "reinitialised"
             est = self._initialise(masks, dt)
@@ -350,6 +377,8 @@ class Tracker:
                     if re is not None and re[1] > prev_weight:
                         pose, weight = re
                         status = "reinitialised"
+                    else:
+                        self._alt = None
                     notes.append(
                         f"track lost ({self.low_count} frames below weight "
                         f"{self.config.lost_weight}): re-initialised, weight {weight:.3f}"
@@ -357,15 +386,23 @@ class Tracker:
                     self.low_count = 0
             else:
                 self.low_count = 0
-            if status == "tracked":
+            if status == "tracked" and self._alt is None:
                 flipped = self._check_heading(pose, weight, masks, dt, time_s)
                 if flipped is not None:
-                    pose, weight, note = flipped
-                    status = "reinitialised"
+                    pose, weight, note, continuous = flipped
+                    if not continuous:
+                        status = "reinitialised"
                     notes.append(note)
         if self._estimate_girth and len(self.config.init.girths) > 1:
             self._update_girth(pose)
         pose, weight, joints = self._floor_constraint(pose, weight)
+        if self._alt is not None:
+            if status == "tracked":
+                pose, weight, joints = self._track_alternative(
+                    pose, weight, joints, dt, time_s, notes
+                )
+            elif status == "initialised" or status == "reinitialised":
+                pose, weight, joints = self._start_alternative(pose, weight, joints)
         self._remember(pose, time_s, dt, continuous=status == "tracked")
         self._prev_joints = joints
         for n in notes:
@@ -445,15 +482,133 @@ class Tracker:
         body, res = best
         if estimate:
             self._set_body(body)
-        self.filter.initialise(res.poses, res.weights)
-        with _numba_threads(self.threads):
-            est = self.filter.step(self._lik, dt)
         self.need_init = False
         self.low_count = 0
         self.velocity_xy = np.zeros(2)
-        if est.weight >= res.best_weight:
-            return est.pose, est.weight
-        return res.best.copy(), res.best_weight
+        self._alt = None
+        poses, weights = res.poses, res.weights
+        ic = self.config.init
+        if ic.both_headings:
+            yaw = DOF["root_yaw"]
+            back = np.abs(wrap_angle(poses[:, yaw] - poses[0, yaw])) > np.pi / 2
+            if back.any() and weights[back][0] >= ic.both_headings_ratio * weights[0]:
+                alt = make_filter(self.config.filter, self.config, rng=self.rng, limits=self.limits)
+                apose, aweight = self._seed_and_step(alt, poses[back], weights[back], dt)
+                self._alt = _Hypothesis(
+                    filter=alt,
+                    pose=apose,
+                    weight=aweight,
+                    joints=np.empty((0, 3)),
+                    velocity_xy=np.zeros(2),
+                )
+                poses, weights = poses[~back], weights[~back]
+        return self._seed_and_step(self.filter, poses, weights, dt)
+
+    def _seed_and_step(
+        self, filt: Filter, poses: np.ndarray, weights: np.ndarray, dt: float
+    ) -> tuple[np.ndarray, float]:
+        """Seed ``filt`` with candidates (heaviest first) and step it once; the heavier of its
+        estimate and the best candidate."""
+        filt.initialise(poses, weights)
+        with _numba_threads(self.threads):
+            est = filt.step(self._lik, dt)
+        if est.weight >= weights[0]:
+            return est.pose.copy(), float(est.weight)
+        return poses[0].copy(), float(weights[0])
+
+    # -- the opposite heading hypothesis (init.both_headings) --------------------------------
+    def _swap_alternative(self) -> None:
+        """Exchange the main track's state with the alternative hypothesis's."""
+        a = self._alt
+        assert a is not None
+        self.filter, a.filter = a.filter, self.filter
+        a.velocity_xy, self.velocity_xy = self.velocity_xy, a.velocity_xy
+        if self.prev_pose is not None:
+            self.prev_pose, a.pose = a.pose, self.prev_pose
+        self._prev_joints, a.joints = a.joints, self._prev_joints
+        self._path, a.path = a.path, self._path
+
+    def _start_alternative(
+        self, pose: np.ndarray, weight: float, joints: np.ndarray
+    ) -> tuple[np.ndarray, float, np.ndarray]:
+        """After an initialisation: floor-constrain the alternative; the heavier one leads."""
+        a = self._alt
+        assert a is not None
+        filt, self.filter = self.filter, a.filter
+        apose, aweight, ajoints = self._floor_constraint(a.pose, a.weight)
+        self.filter = filt
+        a.pose, a.weight, a.joints = apose, aweight, ajoints
+        if aweight > weight:
+            self.filter, a.filter = a.filter, self.filter
+            a.pose, a.weight, a.joints = pose, weight, joints
+            pose, weight, joints = apose, aweight, ajoints
+        a.path = [self._path_entry(self._time_now, a.pose)]
+        return pose, weight, joints
+
+    def _track_alternative(
+        self,
+        pose: np.ndarray,
+        weight: float,
+        joints: np.ndarray,
+        dt: float,
+        time_s: float,
+        notes: list[str],
+    ) -> tuple[np.ndarray, float, np.ndarray]:
+        """Track the opposite heading hypothesis for this frame; decide between the two.
+
+        The walking direction (``heading_check`` source and criteria) decides when it is known:
+        the hypothesis facing it more closely stays. Before, the heavier one is the estimate;
+        an alternative weighing less than ``1 - init.both_headings_drop`` times the estimate,
+        or older than ``init.both_headings_max_s``, is dropped.
+        """
+        a = self._alt
+        assert a is not None
+        ic, hc = self.config.init, self.config.heading_check
+        prev_alt = a.pose
+        self._swap_alternative()
+        try:
+            apose, aweight = self._track(dt)
+            apose, aweight, ajoints = self._floor_constraint(apose, aweight)
+        finally:
+            self._swap_alternative()
+        v = _capped_velocity(apose, prev_alt, dt)
+        a.age_s += dt
+        yaw = DOF["root_yaw"]
+        # Each hypothesis has its own path (their origins differ by centimetres, as much as
+        # one frame's walk); the main one's gives the walking direction.
+        travel = self._walking_direction(pose, time_s, hc.source, hc.window_s)
+        a.path = [*a.path, self._path_entry(time_s, apose)][-64:]
+        take_alt, drop, why = aweight > weight, False, ""
+        if travel is not None:
+            off = abs(wrap_angle(pose[yaw] - travel))
+            aoff = abs(wrap_angle(apose[yaw] - travel))
+            take_alt, drop = bool(aoff < off), True
+            why = f"the walking direction ({np.degrees(travel):.0f} deg) decided"
+        elif min(aweight, weight) < (1.0 - ic.both_headings_drop) * max(aweight, weight):
+            drop = True
+            why = "the weight decided"
+        elif a.age_s > ic.both_headings_max_s:
+            drop = True
+            why = f"undecided after {a.age_s:.1f} s: the heavier kept"
+        if take_alt:
+            # The alternative leads: exchange the states, this frame's results included.
+            assert self.prev_pose is not None
+            mv = _capped_velocity(pose, self.prev_pose, dt)
+            entry = self._path_entry(time_s, pose)
+            self._swap_alternative()
+            self._path = self._path[:-1]  # _remember appends this frame's entry
+            a.path = [*a.path, entry][-64:]
+            a.pose, a.weight, a.joints, a.velocity_xy = pose, weight, joints, mv
+            pose, weight, joints = apose, aweight, ajoints
+        else:
+            a.pose, a.weight, a.joints, a.velocity_xy = apose, aweight, ajoints, v
+        if drop:
+            notes.append(
+                f"heading {np.degrees(pose[yaw]):.0f} deg kept, "
+                f"{np.degrees(a.pose[yaw]):.0f} deg dropped: {why}"
+            )
+            self._alt = None
+        return pose, weight, joints
 
     def _track(self, dt: float) -> tuple[np.ndarray, float]:
         assert self.prev_pose is not None
@@ -660,18 +815,20 @@ class Tracker:
         self.filter.set_root(moved[:6])
         return moved, weight, joints
 
-    def _check_heading(
-        self, pose: np.ndarray, weight: float, masks: list[np.ndarray], dt: float, time_s: float
-    ) -> tuple[np.ndarray, float, str] | None:
-        """Re-initialise facing the walking direction when the heading points backwards."""
+    def _walking_direction(
+        self, pose: np.ndarray, time_s: float, source: str, window_s: float
+    ) -> float | None:
+        """Walking direction (radians) over the last ``window_s`` seconds, or None.
+
+        ``source`` "estimate": the estimated body origin's path; "silhouette": the silhouettes'
+        floor point's. None unless the path has at least ``heading_check.min_frames`` points
+        over ``min_span_s``, a least-squares speed of ``min_speed_m_s`` and a net displacement
+        of at least ``min_straightness`` times its length (a walk, not jitter).
+        """
         hc = self.config.heading_check
-        if not hc.enabled:
-            return None
-        if time_s < self._heading_checked_until:
-            return None
         path = np.array([*self._path, self._path_entry(time_s, pose)])
-        path = path[path[:, 0] >= time_s - hc.window_s - 1e-9]
-        if hc.source == "silhouette":
+        path = path[path[:, 0] >= time_s - window_s - 1e-9]
+        if source == "silhouette":
             path = path[np.isfinite(path[:, 3])][:, [0, 3, 4]]
         else:
             path = path[:, :3]
@@ -682,13 +839,41 @@ class Tracker:
         v = (t @ (path[:, 1:] - path[:, 1:].mean(axis=0))) / (t @ t)
         if np.hypot(*v) < hc.min_speed_m_s:
             return None
-        # A walk, not jitter: the net displacement is most of the distance travelled.
         steps = np.hypot(*np.diff(path[:, 1:], axis=0).T).sum()
         net = float(np.hypot(*(path[-1, 1:] - path[0, 1:])))
         if net < hc.min_straightness * steps:
             return None
-        travel = float(np.arctan2(v[1], v[0]))
-        off = float(np.degrees(abs(wrap_angle(pose[DOF["root_yaw"]] - travel))))
+        return float(np.arctan2(v[1], v[0]))
+
+    def _check_heading(
+        self, pose: np.ndarray, weight: float, masks: list[np.ndarray], dt: float, time_s: float
+    ) -> tuple[np.ndarray, float, str, bool] | None:
+        """Re-initialise facing the walking direction when the heading points backwards; follow
+        a turn the heading lags (``heading_check.turn_angle_deg``).
+
+        Returns
+        -------
+        (pose, weight, note, continuous) when the estimate changed, else None; ``continuous``
+        is False after a re-initialisation (the path and velocity restart).
+        """
+        hc = self.config.heading_check
+        if not hc.enabled:
+            return None
+        yaw = float(pose[DOF["root_yaw"]])
+        if hc.turn_angle_deg > 0.0:
+            turn_travel = self._walking_direction(pose, time_s, hc.turn_source, hc.turn_window_s)
+            if turn_travel is not None:
+                off = float(np.degrees(abs(wrap_angle(yaw - turn_travel))))
+                if hc.turn_angle_deg < off <= hc.max_angle_deg:
+                    turned = self._follow_turn(pose, weight, dt, turn_travel, off)
+                    if turned is not None:
+                        return (*turned, True)
+        if time_s < self._heading_checked_until:
+            return None
+        travel = self._walking_direction(pose, time_s, hc.source, hc.window_s)
+        if travel is None:
+            return None
+        off = float(np.degrees(abs(wrap_angle(yaw - travel))))
         if off <= hc.max_angle_deg:
             return None
         span = np.radians(hc.span_deg)
@@ -724,6 +909,73 @@ class Tracker:
             f"heading {np.degrees(pose[DOF['root_yaw']]):.0f} deg was {off:.0f} deg off the "
             f"walking direction: re-initialised facing {np.degrees(travel):.0f} deg "
             f"(weight {w:.3f}, was {weight:.3f})",
+            False,
+        )
+
+    def _follow_turn(
+        self, pose: np.ndarray, weight: float, dt: float, travel: float, off: float
+    ) -> tuple[np.ndarray, float, str] | None:
+        """Search headings around the walking direction when the heading lags a turn.
+
+        The origin search moves the heading a few degrees per frame holding the previous legs,
+        and a heading turned with the old legs weighs less than the lagging estimate: in a
+        turn the estimate keeps facing the old direction. Here the reduced initial search
+        (every body configuration, positions around this frame's floor point, the redetect
+        config's refinement) runs at ``hc.turn_headings`` headings within ``hc.turn_span_deg``
+        of the walking direction; a result heavier than the estimate by ``hc.turn_margin``
+        becomes the estimate and its best candidates join the particle set.
+        """
+        hc = self.config.heading_check
+        span = np.radians(hc.turn_span_deg)
+        n = hc.turn_headings
+        # The body turns ahead of its path: centre the headings beyond the walking direction,
+        # on the side away from the lagging estimate.
+        side = np.sign(wrap_angle(travel - pose[DOF["root_yaw"]]))
+        centre = travel + side * np.radians(hc.turn_lead_deg)
+        headings = centre + (np.linspace(-span, span, n) if n > 1 else np.zeros(1))
+        with _single_thread():
+            res = initial_search(
+                self._lik,
+                self.body,
+                self.lik_cameras,
+                self._masks,
+                self._redetect_config,
+                limits=self.limits,
+                dt=dt,
+                headings=headings,
+            )
+        if res is None:
+            return None
+        new, w = res.best, float(res.best_weight)
+        if w < hc.turn_trial_ratio * weight:
+            return None
+        if hc.turn_refine:
+            # One filter step seeded with the turned candidates; the particle set is kept
+            # unless the refined estimate wins.
+            f = self.filter
+            saved = dict(f.__dict__)
+            f.initialise(res.poses, res.weights)
+            with _numba_threads(self.threads):
+                est = f.step(self._lik, dt)
+            if est.weight > w:
+                new, w = est.pose, float(est.weight)
+            if not w > weight + hc.turn_margin:
+                f.__dict__.update(saved)
+                return None
+            if self.config.origin.enabled and self.config.origin.after_filter:
+                new, w = self._refine_origin(new, w, dt)
+        else:
+            if not w > weight + hc.turn_margin:
+                return None
+            k = self.config.redetect.inject
+            self.filter.inject(res.poses[:k], res.weights[:k], reset_motion=True)
+        return (
+            new.copy(),
+            w,
+            f"heading {np.degrees(pose[DOF['root_yaw']]):.0f} deg was {off:.0f} deg off the "
+            f"walking direction {np.degrees(travel):.0f} deg: turned to "
+            f"{np.degrees(new[DOF['root_yaw']]):.0f} deg (weight {w:.3f}, was "
+            f"{weight:.3f})",
         )
 
     def _feet_continuity(
@@ -813,16 +1065,13 @@ class Tracker:
         if not continuous or self.prev_pose is None:
             self.velocity_xy = np.zeros(2)
         else:
-            v = (pose[[DOF["root_x"], DOF["root_y"]]] - self.prev_pose[[0, 1]]) / dt
-            speed = float(np.hypot(*v))
-            if speed > _MAX_SPEED_M_S:
-                v *= _MAX_SPEED_M_S / speed
-            self.velocity_xy = v
+            self.velocity_xy = _capped_velocity(pose, self.prev_pose, dt)
         self.prev_pose = pose.copy()
         self.prev_time = float(time_s)
 
     def _no_pose(self, frame_index: int, time_s: float, reason: str) -> FrameResult:
         self.need_init = True
+        self._alt = None
         self.prev_pose = None
         self._prev_joints = None
         self.prev_time = float(time_s)
