@@ -1,0 +1,448 @@
+"""An appearance (colour) cue for the likelihood: each body part keeps its colour over time.
+
+The silhouette cannot tell where the waist is, whether an arm lies over the trunk or where the
+shoes are; the frame's colours can, once the tracker knows what colour each part of this person
+is. :class:`ColourCue` learns a reference colour per body part (head, trunk, pelvis, upper arms,
+forearms, hands, thighs, shanks, feet; left and right share one reference by default) from the
+person themselves, and scores poses by how well the image colour along each capsule's projected
+axis agrees with its part's reference.
+
+Colour space
+    CIE Lab of the frame scaled to the cue's working resolution (area averaging smooths sensor
+    noise), with the lightness scaled by ``lightness_weight`` (shading and lighting change the
+    lightness much more than the chroma).
+
+Learning (:meth:`ColourCue.update`, after each estimate)
+    Only from frames whose estimate fits the silhouettes well (``min_weight``). For the estimate,
+    points along and beside each capsule's axis (away from the joints) are projected; points
+    outside the silhouette or covered by a capsule nearer the camera are dropped. Per part the
+    frame's colour is the median of its points and its spread the median absolute deviation.
+    Over the first ``learn_frames`` accepted frames the reference is the median of the frames'
+    colours; afterwards it follows slowly (``rate``). A part is scored once ``min_frames``
+    frames taught it.
+
+Scoring (:meth:`ColourCue.scores`, :meth:`ColourCue.scores_factored`)
+    Per pose and camera: for every capsule of a learned part, ``samples`` points along its
+    projected axis between ``axis_margin`` and ``1 - axis_margin``; a point inside the silhouette
+    scores ``exp(-d^2 / 2 s^2)`` (``d`` the Lab distance to the part's reference, ``s^2`` the
+    part's spread squared plus ``sigma**2``), a point outside it scores 0. The score is the mean
+    over the points of every scored capsule, then over the cameras. There is no occlusion
+    reasoning, so the score is a sum over capsules and factors over the legs exactly like the
+    silhouette counts. The likelihood multiplies its silhouette weight by
+    ``(score / typical) ** beta`` where ``typical`` is the score of recent estimates, so weights
+    stay on the silhouette's scale and the ranking within a frame is the product's.
+
+The hot path is a numba kernel over the poses (``parallel=True``, chunks like
+:mod:`tracker.raster`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import cv2
+import numba as nb
+import numpy as np
+
+from tracker import raster
+from tracker.body import CAPSULE_NAMES, BodyModel
+from tracker.camera import Camera
+from tracker.segmentation import downscale_mask
+
+#: Body parts of the colour cue and the capsules that show them (left and right separately;
+#: ``merge_sides`` pools the two sides).
+PART_CAPSULES: dict[str, tuple[str, ...]] = {
+    "head": ("neck", "head"),
+    "trunk": ("trunk_left", "trunk_right", "trunk_spine", "left_clavicle", "right_clavicle"),
+    "pelvis": ("pelvis",),
+    "left_upper_arm": ("left_upper_arm",),
+    "right_upper_arm": ("right_upper_arm",),
+    "left_forearm": ("left_forearm",),
+    "right_forearm": ("right_forearm",),
+    "left_hand": ("left_hand",),
+    "right_hand": ("right_hand",),
+    "left_thigh": ("left_thigh",),
+    "right_thigh": ("right_thigh",),
+    "left_shank": ("left_shank",),
+    "right_shank": ("right_shank",),
+    "left_foot": ("left_foot",),
+    "right_foot": ("right_foot",),
+}
+
+
+def part_table(merge_sides: bool) -> tuple[tuple[str, ...], np.ndarray]:
+    """Part names and the part index of every capsule ``(C,)`` int64 (-1: not scored)."""
+    names: list[str] = []
+    of_cap = np.full(len(CAPSULE_NAMES), -1, dtype=np.int64)
+    for part, caps in PART_CAPSULES.items():
+        name = part.removeprefix("left_").removeprefix("right_") if merge_sides else part
+        if name not in names:
+            names.append(name)
+        for c in caps:
+            of_cap[CAPSULE_NAMES.index(c)] = names.index(name)
+    return tuple(names), of_cap
+
+
+def lab_image(frame: np.ndarray, size: tuple[int, int], lightness_weight: float) -> np.ndarray:
+    """A BGR uint8 frame ``(H, W, 3)`` -> Lab float32 ``(h, w, 3)`` at ``size`` = (w, h).
+
+    Area averaging to the working size; L (0..100) is multiplied by ``lightness_weight``, a and
+    b are OpenCV's float Lab chroma (about -128..127).
+    """
+    f = np.asarray(frame)
+    if f.ndim == 2:
+        f = cv2.cvtColor(f, cv2.COLOR_GRAY2BGR)
+    if f.ndim != 3 or f.shape[2] != 3:
+        raise ValueError(f"frame must be (H, W, 3) BGR or (H, W) grey, got {f.shape}")
+    small = cv2.resize(f, size, interpolation=cv2.INTER_AREA)
+    lab = cv2.cvtColor(small.astype(np.float32) * np.float32(1.0 / 255.0), cv2.COLOR_BGR2Lab)
+    lab[..., 0] *= np.float32(lightness_weight)
+    return np.ascontiguousarray(lab)
+
+
+@nb.njit(cache=True, inline="always")
+def _capsule_score(
+    pts: np.ndarray,
+    i: int,
+    ia: int,
+    ib: int,
+    cams: np.ndarray,
+    k: int,
+    h: int,
+    w: int,
+    img: np.ndarray,
+    mask: np.ndarray,
+    ref: np.ndarray,
+    inv2s2: float,
+    ts: np.ndarray,
+) -> float:
+    """Sum over the axis samples ``ts`` of one capsule of pose i in camera k (see module)."""
+    ua, va, _, oka = raster.project_point(pts[i, ia, 0], pts[i, ia, 1], pts[i, ia, 2], cams, k)
+    if not oka:
+        return 0.0
+    ub, vb, _, okb = raster.project_point(pts[i, ib, 0], pts[i, ib, 1], pts[i, ib, 2], cams, k)
+    if not okb:
+        return 0.0
+    acc = 0.0
+    for s in range(ts.shape[0]):
+        t = ts[s]
+        x = int(np.floor(ua + t * (ub - ua) + 0.5))
+        y = int(np.floor(va + t * (vb - va) + 0.5))
+        if x < 0 or y < 0 or x >= w or y >= h or not mask[k, y, x]:
+            continue
+        d0 = img[k, y, x, 0] - ref[0]
+        d1 = img[k, y, x, 1] - ref[1]
+        d2 = img[k, y, x, 2] - ref[2]
+        acc += np.exp(-(d0 * d0 + d1 * d1 + d2 * d2) * inv2s2)
+    return acc
+
+
+@nb.njit(cache=True)
+def _sums_range(
+    lo: int,
+    hi: int,
+    pts: np.ndarray,
+    sel: np.ndarray,
+    cap_ab: np.ndarray,
+    cap_part: np.ndarray,
+    cams: np.ndarray,
+    cam_hw: np.ndarray,
+    img: np.ndarray,
+    mask: np.ndarray,
+    ref: np.ndarray,
+    inv2s2: np.ndarray,
+    ts: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    for i in range(lo, hi):
+        for k in range(cams.shape[0]):
+            acc = 0.0
+            for j in range(sel.shape[0]):
+                c = sel[j]
+                p = cap_part[c]
+                acc += _capsule_score(
+                    pts,
+                    i,
+                    cap_ab[c, 0],
+                    cap_ab[c, 1],
+                    cams,
+                    k,
+                    cam_hw[k, 0],
+                    cam_hw[k, 1],
+                    img,
+                    mask,
+                    ref[p],
+                    inv2s2[p],
+                    ts,
+                )
+            out[i, k] = acc
+
+
+@nb.njit(cache=True, parallel=True)
+def colour_sums_kernel(
+    pts: np.ndarray,
+    sel: np.ndarray,
+    cap_ab: np.ndarray,
+    cap_part: np.ndarray,
+    cams: np.ndarray,
+    cam_hw: np.ndarray,
+    img: np.ndarray,
+    mask: np.ndarray,
+    ref: np.ndarray,
+    inv2s2: np.ndarray,
+    ts: np.ndarray,
+    nchunks: int,
+) -> np.ndarray:
+    """Summed sample scores of capsules ``sel`` per pose and camera -> ``(N, K)`` float64.
+
+    Parameters
+    ----------
+    pts : (N, P, 3) model points (``BodyModel.points``), metres.
+    sel : (S,) int64 capsules to score; cap_ab : (C, 2) point indices of the capsule ends.
+    cap_part : (C,) int64 part of each capsule.
+    cams : (K, 32) packed cameras (:func:`tracker.raster.pack_camera`); cam_hw : (K, 2) int64.
+    img : (K, H, W, 3) float32 Lab images; mask : (K, H, W) bool silhouettes.
+    ref : (n_parts, 3) reference colours; inv2s2 : (n_parts,) ``1 / (2 s^2)``.
+    ts : (n_samples,) positions along the axis (0 = end a, 1 = end b).
+    nchunks : work units shared by the threads.
+    """
+    n = pts.shape[0]
+    out = np.zeros((n, cams.shape[0]), dtype=np.float64)
+    nchunks = max(1, min(n, nchunks))
+    for ch in nb.prange(nchunks):
+        _sums_range(
+            ch * n // nchunks,
+            (ch + 1) * n // nchunks,
+            pts,
+            sel,
+            cap_ab,
+            cap_part,
+            cams,
+            cam_hw,
+            img,
+            mask,
+            ref,
+            inv2s2,
+            ts,
+            out,
+        )
+    return out
+
+
+def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Distance of 2-D points ``p (S, 2)`` to segments ``a, b (C, 2)`` -> ``(S, C)``, and the
+    parameter ``t (S, C)`` of the nearest segment point."""
+    ab = b - a
+    L2 = np.maximum((ab * ab).sum(axis=1), 1e-12)
+    t = np.clip(((p[:, None, :] - a[None]) * ab[None]).sum(axis=2) / L2, 0.0, 1.0)
+    q = a[None] + t[..., None] * ab[None]
+    return np.linalg.norm(p[:, None, :] - q, axis=2), t
+
+
+class ColourCue:
+    """Per-part reference colours of one person and the colour score of poses.
+
+    Parameters
+    ----------
+    cameras : sequence of Camera
+        At the cue's working resolution (``config.size``), one per tracker camera.
+    config : tracker.config.AppearanceConfig
+    """
+
+    def __init__(self, cameras: Sequence[Camera], config) -> None:
+        self.config = config
+        self.cameras = list(cameras)
+        self.cams = np.ascontiguousarray(
+            np.stack([raster.pack_camera(c.R, c.t, c.K, c.dist) for c in self.cameras])
+        )
+        self.cam_hw = np.array([[c.height, c.width] for c in self.cameras], dtype=np.int64)
+        self.part_names, self.cap_part = part_table(config.merge_sides)
+        n = len(self.part_names)
+        self.ref = np.zeros((n, 3))
+        self.spread = np.zeros(n)
+        self.frames_learned = np.zeros(n, dtype=np.int64)
+        self._history: list[list[np.ndarray]] = [[] for _ in range(n)]
+        self._spreads: list[list[float]] = [[] for _ in range(n)]
+        m = config.axis_margin
+        self.ts = np.linspace(m, 1.0 - m, config.samples)
+        hmax, wmax = int(self.cam_hw[:, 0].max()), int(self.cam_hw[:, 1].max())
+        self.img = np.zeros((len(self.cameras), hmax, wmax, 3), dtype=np.float32)
+        self.mask = np.zeros((len(self.cameras), hmax, wmax), dtype=np.bool_)
+        self.has_frame = False
+        #: The colour score of recent estimates (the normaliser of the factor), None at first.
+        self.typical: float | None = None
+        self._update_tables()
+
+    # -- frame ------------------------------------------------------------------------------
+    def set_frame(self, frames: Sequence[np.ndarray], silhouettes: Sequence[np.ndarray]) -> None:
+        """The current frames (BGR uint8, any size) and silhouettes (bool ``(H, W)``, any size:
+        majority-downscaled or nearest-upscaled to the working size)."""
+        if len(frames) != len(self.cameras) or len(silhouettes) != len(self.cameras):
+            raise ValueError(
+                f"expected {len(self.cameras)} frames and silhouettes, "
+                f"got {len(frames)} and {len(silhouettes)}"
+            )
+        lw = self.config.lightness_weight
+        for k, (f, s, cam) in enumerate(zip(frames, silhouettes, self.cameras, strict=True)):
+            size = (cam.width, cam.height)
+            self.img[k, : cam.height, : cam.width] = lab_image(f, size, lw)
+            s = np.asarray(s, dtype=bool)
+            if s.shape[0] >= cam.height:
+                s = downscale_mask(s, size)
+            else:
+                s = cv2.resize(s.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST) > 0
+            self.mask[k, : cam.height, : cam.width] = s
+        self.has_frame = True
+
+    def clear_frame(self) -> None:
+        """No frame for this time step: the cue does not score until the next one is set."""
+        self.has_frame = False
+
+    # -- scoring ----------------------------------------------------------------------------
+    @property
+    def active(self) -> bool:
+        """True when a frame is set and some part is learned (the cue then scores)."""
+        return self.has_frame and self._n_scored > 0
+
+    def _update_tables(self) -> None:
+        learned = self.frames_learned >= self.config.min_frames
+        on = (self.cap_part >= 0) & learned[np.maximum(self.cap_part, 0)]
+        self._on = on
+        s2 = self.spread**2 + self.config.sigma**2
+        self.inv2s2 = 0.5 / s2
+        self._n_scored = int(on.sum())
+
+    def _sel(self, body: BodyModel, group: int | None) -> np.ndarray:
+        on = self._on
+        if group is not None:
+            on = on & (body.capsule_groups == group)
+        return np.flatnonzero(on).astype(np.int64)
+
+    def _sums(self, body: BodyModel, pts: np.ndarray, group: int | None) -> np.ndarray:
+        return colour_sums_kernel(
+            pts,
+            self._sel(body, group),
+            body.cap_ab,
+            self.cap_part,
+            self.cams,
+            self.cam_hw,
+            self.img,
+            self.mask,
+            self.ref,
+            self.inv2s2,
+            self.ts,
+            4 * nb.get_num_threads(),
+        )
+
+    def _norm(self) -> float:
+        return float(self._n_scored * self.ts.size)
+
+    def scores(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
+        """Colour scores ``(N,)`` in [0, 1] of poses given their model points ``(N, P, 3)``."""
+        return self._sums(body, pts, None).mean(axis=1) / self._norm()
+
+    def scores_factored(
+        self, body: BodyModel, pts_base: np.ndarray, pts_left: np.ndarray, pts_right: np.ndarray
+    ) -> np.ndarray:
+        """Scores ``(M, A, B)`` of every leg combination (see
+        ``SilhouetteLikelihood.weights_factored``) from the points of the base poses ``(M, P,
+        3)`` and of the leg variants ``(M * A, P, 3)``, ``(M * B, P, 3)``."""
+        m = pts_base.shape[0]
+        sb = self._sums(body, pts_base, 0)
+        sl = self._sums(body, pts_left, 1).reshape(m, -1, sb.shape[1])
+        sr = self._sums(body, pts_right, 2).reshape(m, -1, sb.shape[1])
+        tot = sb[:, None, None, :] + sl[:, :, None, :] + sr[:, None, :, :]
+        return tot.mean(axis=3) / self._norm()
+
+    def factor(self, scores: np.ndarray) -> np.ndarray:
+        """The multiplier of the silhouette weight: ``(scores / typical) ** beta``."""
+        typ = self.typical if self.typical else 1.0
+        return (np.maximum(scores, 0.0) / typ) ** self.config.beta
+
+    # -- learning ---------------------------------------------------------------------------
+    def sample_estimate(self, body: BodyModel, pose: np.ndarray) -> list[np.ndarray]:
+        """Lab colours of the visible points of every part of one pose: list of ``(n_i, 3)``.
+
+        Points along the capsule axes and beside them (``0.4`` of the projected radius either
+        side), between ``axis_margin`` and ``1 - axis_margin``; kept when inside the
+        silhouette and not covered by a capsule nearer the camera.
+        """
+        pts = body.points(np.asarray(pose, dtype=np.float64)[None])[0]
+        a3, b3 = pts[body.cap_a], pts[body.cap_b]
+        ts = np.linspace(self.config.axis_margin, 1.0 - self.config.axis_margin, 7)
+        out: list[list[np.ndarray]] = [[] for _ in self.part_names]
+        for k, cam in enumerate(self.cameras):
+            R, t = cam.R, np.asarray(cam.t, dtype=np.float64).ravel()
+            za = a3 @ R[2] + t[2]
+            zb = b3 @ R[2] + t[2]
+            if np.any(za < raster.Z_NEAR) or np.any(zb < raster.Z_NEAR):
+                continue
+            ua = cam.project(a3)
+            ub = cam.project(b3)
+            f = 0.5 * (cam.K[0, 0] + cam.K[1, 1])
+            ra = body.radii[:, 0] * f / za
+            rb = body.radii[:, 1] * f / zb
+            for c in np.flatnonzero(self.cap_part >= 0):
+                d = ub[c] - ua[c]
+                n = np.hypot(*d)
+                perp = np.array([-d[1], d[0]]) / n if n > 1e-9 else np.array([0.0, 0.0])
+                rr = ra[c] + ts * (rb[c] - ra[c])
+                axis = ua[c][None] + ts[:, None] * d[None]
+                cand = np.concatenate(
+                    [axis, axis + 0.4 * rr[:, None] * perp, axis - 0.4 * rr[:, None] * perp]
+                )
+                zc = np.tile(za[c] + ts * (zb[c] - za[c]), 3)
+                # covered by another capsule nearer the camera?
+                dist, tt = _segment_distance(cand, ua, ub)
+                rad = ra[None] + tt * (rb - ra)[None]
+                zz = za[None] + tt * (zb - za)[None]
+                cover = (dist <= rad) & (zz < zc[:, None] - 0.5 * (ra[c] + rb[c]) * zc[:, None] / f)
+                cover[:, c] = False
+                cover[:, self.cap_part == self.cap_part[c]] = False
+                ok = ~cover.any(axis=1)
+                xy = np.floor(cand + 0.5).astype(np.int64)
+                ok &= (xy[:, 0] >= 0) & (xy[:, 1] >= 0)
+                ok &= (xy[:, 0] < cam.width) & (xy[:, 1] < cam.height)
+                xy = xy[ok]
+                inside = self.mask[k, xy[:, 1], xy[:, 0]]
+                xy = xy[inside]
+                if xy.size:
+                    out[self.cap_part[c]].append(self.img[k, xy[:, 1], xy[:, 0]].astype(np.float64))
+        return [np.concatenate(o) if o else np.zeros((0, 3)) for o in out]
+
+    def update(self, body: BodyModel, pose: np.ndarray, silhouette_weight: float) -> bool:
+        """Learn from one estimate (after the frame was set); returns True when it was used."""
+        c = self.config
+        if not self.has_frame or not silhouette_weight >= c.min_weight:
+            return False
+        samples = self.sample_estimate(body, pose)
+        for p, s in enumerate(samples):
+            if s.shape[0] < c.min_points:
+                continue
+            med = np.median(s, axis=0)
+            spread = float(1.4826 * np.median(np.linalg.norm(s - med, axis=1)))
+            if self.frames_learned[p] < c.learn_frames:
+                self._history[p].append(med)
+                self._spreads[p].append(spread)
+                self.ref[p] = np.median(np.stack(self._history[p]), axis=0)
+                self.spread[p] = float(np.median(self._spreads[p]))
+            else:
+                self.ref[p] += c.rate * (med - self.ref[p])
+                self.spread[p] += c.rate * (spread - self.spread[p])
+            self.frames_learned[p] += 1
+        self._update_tables()
+        if self._n_scored:
+            pts = body.points(np.asarray(pose, dtype=np.float64)[None])
+            s = float(self.scores(body, pts)[0])
+            if s > 0:
+                self.typical = (
+                    s if self.typical is None else self.typical + 0.2 * (s - self.typical)
+                )
+        return True
+
+    def reset(self) -> None:
+        """Forget everything learned (another person)."""
+        self.__init__(self.cameras, self.config)  # type: ignore[misc]
+
+
+__all__ = ["PART_CAPSULES", "ColourCue", "colour_sums_kernel", "lab_image", "part_table"]
