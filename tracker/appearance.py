@@ -86,55 +86,50 @@ def part_table(merge_sides: bool) -> tuple[tuple[str, ...], np.ndarray]:
 def lab_image(frame: np.ndarray, size: tuple[int, int], lightness_weight: float) -> np.ndarray:
     """A BGR uint8 frame ``(H, W, 3)`` -> Lab float32 ``(h, w, 3)`` at ``size`` = (w, h).
 
-    Area averaging to the working size; L (0..100) is multiplied by ``lightness_weight``, a and
-    b are OpenCV's float Lab chroma (about -128..127).
+    Bilinear resampling to the working size; L (0..100) is multiplied by ``lightness_weight``, a and
+    b are the Lab chroma (-128..127).
     """
     f = np.asarray(frame)
     if f.ndim == 2:
         f = cv2.cvtColor(f, cv2.COLOR_GRAY2BGR)
     if f.ndim != 3 or f.shape[2] != 3:
         raise ValueError(f"frame must be (H, W, 3) BGR or (H, W) grey, got {f.shape}")
-    small = cv2.resize(f, size, interpolation=cv2.INTER_AREA)
-    lab = cv2.cvtColor(small.astype(np.float32) * np.float32(1.0 / 255.0), cv2.COLOR_BGR2Lab)
-    lab[..., 0] *= np.float32(lightness_weight)
+    small = cv2.resize(f, size, interpolation=cv2.INTER_LINEAR)
+    # 8-bit Lab (OpenCV: L * 255 / 100, a + 128, b + 128; within 1 unit of the float
+    # conversion and ten times faster)
+    lab = cv2.cvtColor(small, cv2.COLOR_BGR2Lab).astype(np.float32)
+    lab -= np.array([0.0, 128.0, 128.0], dtype=np.float32)
+    lab[..., 0] *= np.float32(lightness_weight * 100.0 / 255.0)
     return np.ascontiguousarray(lab)
 
 
-@nb.njit(cache=True, inline="always")
-def _capsule_score(
-    pts: np.ndarray,
-    i: int,
-    ia: int,
-    ib: int,
-    cams: np.ndarray,
-    k: int,
-    h: int,
-    w: int,
-    img: np.ndarray,
-    mask: np.ndarray,
-    ref: np.ndarray,
-    inv2s2: float,
-    ts: np.ndarray,
-) -> float:
-    """Sum over the axis samples ``ts`` of one capsule of pose i in camera k (see module)."""
-    ua, va, _, oka = raster.project_point(pts[i, ia, 0], pts[i, ia, 1], pts[i, ia, 2], cams, k)
-    if not oka:
-        return 0.0
-    ub, vb, _, okb = raster.project_point(pts[i, ib, 0], pts[i, ib, 1], pts[i, ib, 2], cams, k)
-    if not okb:
-        return 0.0
-    acc = 0.0
-    for s in range(ts.shape[0]):
-        t = ts[s]
-        x = int(np.floor(ua + t * (ub - ua) + 0.5))
-        y = int(np.floor(va + t * (vb - va) + 0.5))
-        if x < 0 or y < 0 or x >= w or y >= h or not mask[k, y, x]:
-            continue
-        d0 = img[k, y, x, 0] - ref[0]
-        d1 = img[k, y, x, 1] - ref[1]
-        d2 = img[k, y, x, 2] - ref[2]
-        acc += np.exp(-(d0 * d0 + d1 * d1 + d2 * d2) * inv2s2)
-    return acc
+@nb.njit(cache=True)
+def score_maps_kernel(
+    img: np.ndarray, mask: np.ndarray, ref: np.ndarray, inv2s2: np.ndarray, on: np.ndarray
+) -> np.ndarray:
+    """Per-pixel agreement with every part's reference -> ``(K, n_parts, H, W)`` float32.
+
+    ``exp(-|img - ref[p]|^2 * inv2s2[p])`` inside the silhouette ``mask`` (K, H, W), 0 outside
+    and for parts with ``on[p]`` False. ``img`` (K, H, W, 3) float32 Lab.
+    """
+    nk, h, w = mask.shape
+    npart = ref.shape[0]
+    out = np.zeros((nk, npart, h, w), dtype=np.float32)
+    for k in range(nk):
+        for y in range(h):
+            for x in range(w):
+                if not mask[k, y, x]:
+                    continue
+                c0 = img[k, y, x, 0]
+                c1 = img[k, y, x, 1]
+                c2 = img[k, y, x, 2]
+                for p in range(npart):
+                    if on[p]:
+                        d0 = c0 - ref[p, 0]
+                        d1 = c1 - ref[p, 1]
+                        d2 = c2 - ref[p, 2]
+                        out[k, p, y, x] = np.exp(-(d0 * d0 + d1 * d1 + d2 * d2) * inv2s2[p])
+    return out
 
 
 @nb.njit(cache=True)
@@ -147,35 +142,58 @@ def _sums_range(
     cap_part: np.ndarray,
     cams: np.ndarray,
     cam_hw: np.ndarray,
-    img: np.ndarray,
-    mask: np.ndarray,
-    ref: np.ndarray,
-    inv2s2: np.ndarray,
+    maps: np.ndarray,
     ts: np.ndarray,
     out: np.ndarray,
 ) -> None:
     for i in range(lo, hi):
         for k in range(cams.shape[0]):
+            h = cam_hw[k, 0]
+            w = cam_hw[k, 1]
             acc = 0.0
             for j in range(sel.shape[0]):
                 c = sel[j]
                 p = cap_part[c]
-                acc += _capsule_score(
-                    pts,
-                    i,
-                    cap_ab[c, 0],
-                    cap_ab[c, 1],
-                    cams,
-                    k,
-                    cam_hw[k, 0],
-                    cam_hw[k, 1],
-                    img,
-                    mask,
-                    ref[p],
-                    inv2s2[p],
-                    ts,
+                ia = cap_ab[c, 0]
+                ib = cap_ab[c, 1]
+                ua, va, _, oka = raster.project_point(
+                    pts[i, ia, 0], pts[i, ia, 1], pts[i, ia, 2], cams, k
                 )
+                if not oka:
+                    continue
+                ub, vb, _, okb = raster.project_point(
+                    pts[i, ib, 0], pts[i, ib, 1], pts[i, ib, 2], cams, k
+                )
+                if not okb:
+                    continue
+                for s in range(ts.shape[0]):
+                    t = ts[s]
+                    x = int(np.floor(ua + t * (ub - ua) + 0.5))
+                    y = int(np.floor(va + t * (vb - va) + 0.5))
+                    if x >= 0 and y >= 0 and x < w and y < h:
+                        acc += maps[k, p, y, x]
             out[i, k] = acc
+
+
+@nb.njit(cache=True)
+def _colour_sums_serial(
+    pts: np.ndarray,
+    sel: np.ndarray,
+    cap_ab: np.ndarray,
+    cap_part: np.ndarray,
+    cams: np.ndarray,
+    cam_hw: np.ndarray,
+    maps: np.ndarray,
+    ts: np.ndarray,
+) -> np.ndarray:
+    """:func:`colour_sums_kernel` on one thread (small batches: no parallel dispatch)."""
+    out = np.zeros((pts.shape[0], cams.shape[0]), dtype=np.float64)
+    _sums_range(0, pts.shape[0], pts, sel, cap_ab, cap_part, cams, cam_hw, maps, ts, out)
+    return out
+
+
+#: Batches smaller than this are scored by the serial kernel.
+SERIAL_BELOW = 64
 
 
 @nb.njit(cache=True, parallel=True)
@@ -186,10 +204,7 @@ def colour_sums_kernel(
     cap_part: np.ndarray,
     cams: np.ndarray,
     cam_hw: np.ndarray,
-    img: np.ndarray,
-    mask: np.ndarray,
-    ref: np.ndarray,
-    inv2s2: np.ndarray,
+    maps: np.ndarray,
     ts: np.ndarray,
     nchunks: int,
 ) -> np.ndarray:
@@ -201,9 +216,8 @@ def colour_sums_kernel(
     sel : (S,) int64 capsules to score; cap_ab : (C, 2) point indices of the capsule ends.
     cap_part : (C,) int64 part of each capsule.
     cams : (K, 32) packed cameras (:func:`tracker.raster.pack_camera`); cam_hw : (K, 2) int64.
-    img : (K, H, W, 3) float32 Lab images; mask : (K, H, W) bool silhouettes.
-    ref : (n_parts, 3) reference colours; inv2s2 : (n_parts,) ``1 / (2 s^2)``.
-    ts : (n_samples,) positions along the axis (0 = end a, 1 = end b).
+    maps : (K, n_parts, H, W) float32 per-pixel agreement (:func:`score_maps_kernel`).
+    ts : (n_samples,) positions along the projected axis (0 = end a, 1 = end b).
     nchunks : work units shared by the threads.
     """
     n = pts.shape[0]
@@ -219,10 +233,7 @@ def colour_sums_kernel(
             cap_part,
             cams,
             cam_hw,
-            img,
-            mask,
-            ref,
-            inv2s2,
+            maps,
             ts,
             out,
         )
@@ -257,6 +268,9 @@ class ColourCue:
         )
         self.cam_hw = np.array([[c.height, c.width] for c in self.cameras], dtype=np.int64)
         self.part_names, self.cap_part = part_table(config.merge_sides)
+        unknown = set(config.parts or ()) - set(self.part_names)
+        if unknown:
+            raise ValueError(f"appearance.parts: unknown part(s) {', '.join(sorted(unknown))}")
         n = len(self.part_names)
         self.ref = np.zeros((n, 3))
         self.spread = np.zeros(n)
@@ -271,6 +285,8 @@ class ColourCue:
         self.has_frame = False
         #: The colour score of recent estimates (the normaliser of the factor), None at first.
         self.typical: float | None = None
+        self._maps: np.ndarray | None = None
+        self._calls = 0
         self._update_tables()
 
     # -- frame ------------------------------------------------------------------------------
@@ -293,6 +309,7 @@ class ColourCue:
                 s = cv2.resize(s.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST) > 0
             self.mask[k, : cam.height, : cam.width] = s
         self.has_frame = True
+        self._maps = None
 
     def clear_frame(self) -> None:
         """No frame for this time step: the cue does not score until the next one is set."""
@@ -307,32 +324,36 @@ class ColourCue:
     def _update_tables(self) -> None:
         learned = self.frames_learned >= self.config.min_frames
         on = (self.cap_part >= 0) & learned[np.maximum(self.cap_part, 0)]
+        if self.config.parts is not None:
+            scored = np.array([n in self.config.parts for n in self.part_names])
+            on &= scored[np.maximum(self.cap_part, 0)]
         self._on = on
+        self._part_on = np.zeros(len(self.part_names), dtype=np.bool_)
+        self._part_on[self.cap_part[on]] = True
         s2 = self.spread**2 + self.config.sigma**2
         self.inv2s2 = 0.5 / s2
         self._n_scored = int(on.sum())
+        self._maps = None
+        self._sel_cache: dict[int | None, np.ndarray] = {}
 
     def _sel(self, body: BodyModel, group: int | None) -> np.ndarray:
-        on = self._on
-        if group is not None:
-            on = on & (body.capsule_groups == group)
-        return np.flatnonzero(on).astype(np.int64)
+        sel = self._sel_cache.get(group)
+        if sel is None:
+            on = self._on
+            if group is not None:
+                on = on & (body.capsule_groups == group)
+            sel = self._sel_cache[group] = np.flatnonzero(on).astype(np.int64)
+        return sel
 
     def _sums(self, body: BodyModel, pts: np.ndarray, group: int | None) -> np.ndarray:
-        return colour_sums_kernel(
-            pts,
-            self._sel(body, group),
-            body.cap_ab,
-            self.cap_part,
-            self.cams,
-            self.cam_hw,
-            self.img,
-            self.mask,
-            self.ref,
-            self.inv2s2,
-            self.ts,
-            4 * nb.get_num_threads(),
-        )
+        if self._maps is None:
+            self._maps = score_maps_kernel(
+                self.img, self.mask, self.ref, self.inv2s2, self._part_on
+            )
+        args = (pts, self._sel(body, group), body.cap_ab, self.cap_part, self.cams, self.cam_hw)
+        if pts.shape[0] < SERIAL_BELOW or nb.get_num_threads() == 1:
+            return _colour_sums_serial(*args, self._maps, self.ts)
+        return colour_sums_kernel(*args, self._maps, self.ts, 4 * nb.get_num_threads())
 
     def _norm(self) -> float:
         return float(self._n_scored * self.ts.size)
@@ -370,51 +391,67 @@ class ColourCue:
         pts = body.points(np.asarray(pose, dtype=np.float64)[None])[0]
         a3, b3 = pts[body.cap_a], pts[body.cap_b]
         ts = np.linspace(self.config.axis_margin, 1.0 - self.config.axis_margin, 7)
-        out: list[list[np.ndarray]] = [[] for _ in self.part_names]
+        caps = np.flatnonzero(self.cap_part >= 0)
+        part = self.cap_part
+        colours: list[np.ndarray] = []
+        parts: list[np.ndarray] = []
         for k, cam in enumerate(self.cameras):
             R, t = cam.R, np.asarray(cam.t, dtype=np.float64).ravel()
             za = a3 @ R[2] + t[2]
             zb = b3 @ R[2] + t[2]
             if np.any(za < raster.Z_NEAR) or np.any(zb < raster.Z_NEAR):
                 continue
-            ua = cam.project(a3)
-            ub = cam.project(b3)
+            ua, ub = cam.project(a3), cam.project(b3)
             f = 0.5 * (cam.K[0, 0] + cam.K[1, 1])
-            ra = body.radii[:, 0] * f / za
-            rb = body.radii[:, 1] * f / zb
-            for c in np.flatnonzero(self.cap_part >= 0):
-                d = ub[c] - ua[c]
-                n = np.hypot(*d)
-                perp = np.array([-d[1], d[0]]) / n if n > 1e-9 else np.array([0.0, 0.0])
-                rr = ra[c] + ts * (rb[c] - ra[c])
-                axis = ua[c][None] + ts[:, None] * d[None]
-                cand = np.concatenate(
-                    [axis, axis + 0.4 * rr[:, None] * perp, axis - 0.4 * rr[:, None] * perp]
-                )
-                zc = np.tile(za[c] + ts * (zb[c] - za[c]), 3)
-                # covered by another capsule nearer the camera?
-                dist, tt = _segment_distance(cand, ua, ub)
-                rad = ra[None] + tt * (rb - ra)[None]
-                zz = za[None] + tt * (zb - za)[None]
-                cover = (dist <= rad) & (zz < zc[:, None] - 0.5 * (ra[c] + rb[c]) * zc[:, None] / f)
-                cover[:, c] = False
-                cover[:, self.cap_part == self.cap_part[c]] = False
-                ok = ~cover.any(axis=1)
-                xy = np.floor(cand + 0.5).astype(np.int64)
-                ok &= (xy[:, 0] >= 0) & (xy[:, 1] >= 0)
-                ok &= (xy[:, 0] < cam.width) & (xy[:, 1] < cam.height)
-                xy = xy[ok]
-                inside = self.mask[k, xy[:, 1], xy[:, 0]]
-                xy = xy[inside]
-                if xy.size:
-                    out[self.cap_part[c]].append(self.img[k, xy[:, 1], xy[:, 0]].astype(np.float64))
-        return [np.concatenate(o) if o else np.zeros((0, 3)) for o in out]
+            ra, rb = body.radii[:, 0] * f / za, body.radii[:, 1] * f / zb
+            # points along and beside the axis of every scored capsule: (len(caps), 3 T, 2)
+            d = (ub - ua)[caps]
+            n = np.linalg.norm(d, axis=1, keepdims=True)
+            perp = np.where(
+                n > 1e-9, np.stack([-d[:, 1], d[:, 0]], axis=1) / np.maximum(n, 1e-9), 0
+            )
+            rr = ra[caps, None] + ts[None] * (rb - ra)[caps, None]
+            axis = ua[caps, None] + ts[None, :, None] * d[:, None]
+            off = 0.4 * rr[..., None] * perp[:, None]
+            cand = np.concatenate([axis, axis + off, axis - off], axis=1).reshape(-1, 2)
+            owner = np.repeat(caps, 3 * ts.size)
+            zc = np.tile(za[caps, None] + ts[None] * (zb - za)[caps, None], (1, 3)).ravel()
+            # covered by a capsule of another part nearer the camera (by a radius at least)?
+            dist, tt = _segment_distance(cand, ua, ub)
+            rad = ra[None] + tt * (rb - ra)[None]
+            zz = za[None] + tt * (zb - za)[None]
+            margin = 0.5 * (body.radii[owner, 0] + body.radii[owner, 1])
+            cover = (dist <= rad) & (zz < (zc - margin)[:, None])
+            cover &= part[None] != part[owner][:, None]
+            xy = np.floor(cand + 0.5).astype(np.int64)
+            ok = ~cover.any(axis=1) & (xy[:, 0] >= 0) & (xy[:, 1] >= 0)
+            ok &= (xy[:, 0] < cam.width) & (xy[:, 1] < cam.height)
+            ok[ok] = self.mask[k, xy[ok, 1], xy[ok, 0]]
+            colours.append(self.img[k, xy[ok, 1], xy[ok, 0]].astype(np.float64))
+            parts.append(part[owner[ok]])
+        if not colours:
+            return [np.zeros((0, 3)) for _ in self.part_names]
+        col, prt = np.concatenate(colours), np.concatenate(parts)
+        return [col[prt == p] for p in range(len(self.part_names))]
+
+    def wants_update(self) -> bool:
+        """Whether :meth:`update` would learn from this frame: every frame until every part has
+        ``learn_frames`` frames, then every ``learn_every``-th frame (counted by this call)."""
+        if not self.has_frame:
+            return False
+        self._calls += 1
+        if self.frames_learned.min() < self.config.learn_frames:
+            return True
+        return self._calls % self.config.learn_every == 0
 
     def update(self, body: BodyModel, pose: np.ndarray, silhouette_weight: float) -> bool:
         """Learn from one estimate (after the frame was set); returns True when it was used."""
         c = self.config
         if not self.has_frame or not silhouette_weight >= c.min_weight:
             return False
+        pts = body.points(np.asarray(pose, dtype=np.float64)[None])
+        # the estimate's score with the references this frame was searched with
+        before = float(self.scores(body, pts)[0]) if self.active else None
         samples = self.sample_estimate(body, pose)
         for p, s in enumerate(samples):
             if s.shape[0] < c.min_points:
@@ -431,13 +468,12 @@ class ColourCue:
                 self.spread[p] += c.rate * (spread - self.spread[p])
             self.frames_learned[p] += 1
         self._update_tables()
-        if self._n_scored:
-            pts = body.points(np.asarray(pose, dtype=np.float64)[None])
-            s = float(self.scores(body, pts)[0])
-            if s > 0:
-                self.typical = (
-                    s if self.typical is None else self.typical + 0.2 * (s - self.typical)
-                )
+        if before is None and self.active:  # just became active: score with the new references
+            before = float(self.scores(body, pts)[0])
+        if before is not None and before > 0:
+            self.typical = (
+                before if self.typical is None else self.typical + 0.2 * (before - self.typical)
+            )
         return True
 
     def reset(self) -> None:
@@ -445,4 +481,11 @@ class ColourCue:
         self.__init__(self.cameras, self.config)  # type: ignore[misc]
 
 
-__all__ = ["PART_CAPSULES", "ColourCue", "colour_sums_kernel", "lab_image", "part_table"]
+__all__ = [
+    "PART_CAPSULES",
+    "ColourCue",
+    "colour_sums_kernel",
+    "lab_image",
+    "part_table",
+    "score_maps_kernel",
+]

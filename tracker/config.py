@@ -524,7 +524,7 @@ class AppearanceConfig(_Model):
     ] = (160, 120)
     beta: Annotated[
         float, Field(gt=0, le=20, description="Exponent of the colour factor (its strength)")
-    ] = 1.0
+    ] = 0.5
     lightness_weight: Annotated[
         float,
         Field(ge=0, le=1, description="Factor on Lab lightness (shading); chroma counts fully"),
@@ -552,6 +552,13 @@ class AppearanceConfig(_Model):
     merge_sides: Annotated[
         bool, Field(description="Left and right limbs share one reference colour")
     ] = True
+    parts: Annotated[
+        tuple[str, ...] | None,
+        Field(
+            description="Parts scored (tracker.appearance.PART_CAPSULES names, without left_/"
+            "right_ when merge_sides); None: all. Every part is learned either way"
+        ),
+    ] = None
     min_weight: Annotated[
         float,
         Field(ge=0, le=1, description="Learn only from estimates with this silhouette weight"),
@@ -569,7 +576,11 @@ class AppearanceConfig(_Model):
     rate: Annotated[
         float,
         Field(ge=0, le=1, description="Update rate of the reference after learn_frames frames"),
-    ] = 0.02
+    ] = 0.05
+    learn_every: Annotated[
+        int,
+        Field(ge=1, le=1000, description="After learn_frames frames, learn from every n-th frame"),
+    ] = 4
 
 
 class TrackerConfig(_Model):

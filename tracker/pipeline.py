@@ -348,7 +348,8 @@ class Tracker:
             if frames is None:
                 self.colour.clear_frame()
             else:
-                self.colour.set_frame(frames, [s.mask_full for s in segs])
+                same = tuple(self.config.appearance.size) == tuple(self.config.likelihood_size)
+                self.colour.set_frame(frames, masks if same else [s.mask_full for s in segs])
         fp = floor_point(self.lik_cameras, masks)
         self._floor_now = np.full(2, np.nan) if fp is None else np.asarray(fp, dtype=np.float64)
         dt = self._dt(time_s)
@@ -414,6 +415,8 @@ class Tracker:
         weight alone)."""
         from tracker.likelihood import weight_from_counts
 
+        if not self.colour.wants_update():
+            return
         counts = self.likelihood.counts(pose[None])
         sil_w = float(weight_from_counts(counts, self.likelihood.measure)[0])
         self.colour.update(self.body, pose, sil_w)
