@@ -192,6 +192,32 @@ def _colour_sums_serial(
     return out
 
 
+@nb.njit(cache=True)
+def _factors_serial(
+    pts: np.ndarray,
+    sel: np.ndarray,
+    cap_ab: np.ndarray,
+    cap_part: np.ndarray,
+    cams: np.ndarray,
+    cam_hw: np.ndarray,
+    maps: np.ndarray,
+    ts: np.ndarray,
+    scale: float,
+    beta: float,
+) -> np.ndarray:
+    """``(mean over cameras of the sums * scale) ** beta`` per pose, on one thread."""
+    nk = cams.shape[0]
+    out = np.zeros((pts.shape[0], nk), dtype=np.float64)
+    _sums_range(0, pts.shape[0], pts, sel, cap_ab, cap_part, cams, cam_hw, maps, ts, out)
+    f = np.empty(pts.shape[0], dtype=np.float64)
+    for i in range(pts.shape[0]):
+        acc = 0.0
+        for k in range(nk):
+            acc += out[i, k]
+        f[i] = (acc / nk * scale) ** beta
+    return f
+
+
 #: Batches smaller than this are scored by the serial kernel.
 SERIAL_BELOW = 64
 
@@ -374,6 +400,28 @@ class ColourCue:
         sr = self._sums(body, pts_right, 2).reshape(m, -1, sb.shape[1])
         tot = sb[:, None, None, :] + sl[:, :, None, :] + sr[:, None, :, :]
         return tot.mean(axis=3) / self._norm()
+
+    def weight_factors(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
+        """``factor(scores(body, pts))`` ``(N,)``; small batches in one kernel call."""
+        if pts.shape[0] >= SERIAL_BELOW and nb.get_num_threads() > 1:
+            return self.factor(self.scores(body, pts))
+        if self._maps is None:
+            self._maps = score_maps_kernel(
+                self.img, self.mask, self.ref, self.inv2s2, self._part_on
+            )
+        typ = self.typical if self.typical else 1.0
+        return _factors_serial(
+            pts,
+            self._sel(body, None),
+            body.cap_ab,
+            self.cap_part,
+            self.cams,
+            self.cam_hw,
+            self._maps,
+            self.ts,
+            1.0 / (self._norm() * typ),
+            float(self.config.beta),
+        )
 
     def factor(self, scores: np.ndarray) -> np.ndarray:
         """The multiplier of the silhouette weight: ``(scores / typical) ** beta``."""

@@ -171,7 +171,7 @@ class SilhouetteLikelihood:
         pts = self.body.points(self._poses(poses))
         w = weight_from_counts(self._counts(pts), self.measure)
         if self.appearance is not None and self.appearance.active:  # colour cue
-            w = w * self.appearance.factor(self.appearance.scores(self.body, pts))
+            w = w * self.appearance.weight_factors(self.body, pts)
         return w
 
     def counts_factored(
