@@ -622,6 +622,77 @@ class RefineConfig(_Model):
         return _check_dof_keys(v, "range_overrides")
 
 
+class AppearanceConfig(_Model):
+    """The colour cue (:mod:`tracker.appearance`): per-part reference colours learned online
+    from the person; the silhouette weight is multiplied by ``(score / typical) ** beta``."""
+
+    enabled: Annotated[
+        bool, Field(description="Multiply the silhouette weight by the colour agreement")
+    ] = False
+    size: Annotated[
+        tuple[int, int], Field(description="Width, height of the colour images (area-averaged)")
+    ] = (160, 120)
+    beta: Annotated[
+        float, Field(gt=0, le=20, description="Exponent of the colour factor (its strength)")
+    ] = 0.5
+    lightness_weight: Annotated[
+        float,
+        Field(ge=0, le=1, description="Factor on Lab lightness (shading); chroma counts fully"),
+    ] = 0.3
+    sigma: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=100,
+            description="Lab distance added (in quadrature) to each part's learned spread: "
+            "the width of the colour agreement kernel",
+        ),
+    ] = 8.0
+    samples: Annotated[
+        int, Field(ge=1, le=32, description="Points scored along each capsule's axis")
+    ] = 5
+    axis_margin: Annotated[
+        float,
+        Field(
+            ge=0,
+            lt=0.5,
+            description="Fraction of the axis skipped at each end (near joints, occlusions)",
+        ),
+    ] = 0.2
+    merge_sides: Annotated[
+        bool, Field(description="Left and right limbs share one reference colour")
+    ] = True
+    parts: Annotated[
+        tuple[str, ...] | None,
+        Field(
+            description="Parts scored (tracker.appearance.PART_CAPSULES names, without left_/"
+            "right_ when merge_sides); None: all. Every part is learned either way"
+        ),
+    ] = None
+    min_weight: Annotated[
+        float,
+        Field(ge=0, le=1, description="Learn only from estimates with this silhouette weight"),
+    ] = 0.6
+    min_points: Annotated[
+        int, Field(ge=1, le=1000, description="Visible points a part needs to learn from a frame")
+    ] = 4
+    learn_frames: Annotated[
+        int,
+        Field(ge=1, le=1000, description="First frames whose median is the reference"),
+    ] = 10
+    min_frames: Annotated[
+        int, Field(ge=1, le=1000, description="Frames learned before a part is scored")
+    ] = 3
+    rate: Annotated[
+        float,
+        Field(ge=0, le=1, description="Update rate of the reference after learn_frames frames"),
+    ] = 0.05
+    learn_every: Annotated[
+        int,
+        Field(ge=1, le=1000, description="After learn_frames frames, learn from every n-th frame"),
+    ] = 4
+
+
 class TrackerConfig(_Model):
     """Everything the tracking pipeline needs besides cameras, footage and a seed."""
 
@@ -643,6 +714,7 @@ class TrackerConfig(_Model):
     heading_check: HeadingCheckConfig = Field(default_factory=HeadingCheckConfig)
     leg_swap: LegSwapConfig = Field(default_factory=LegSwapConfig)
     refine: RefineConfig = Field(default_factory=RefineConfig)
+    appearance: AppearanceConfig = Field(default_factory=AppearanceConfig)
     limits_profile: Annotated[str, Field(description="tracker.dof limit profile")] = "walking"
     limits_overrides_deg: dict[str, tuple[float, float]] = {}
     reference_dt_s: Annotated[float, Field(gt=0, le=1)] = 0.05

@@ -107,6 +107,8 @@ class SilhouetteLikelihood:
         self._words = int((self.cam_hw[:, 1].max() + 63) // 64)
         self._sil: np.ndarray | None = None
         self._sil_total = np.zeros(k, dtype=np.int64)
+        #: Optional colour cue (tracker.appearance.ColourCue): multiplies the weights when active.
+        self.appearance = None
 
     @property
     def n_cameras(self) -> int:
@@ -148,8 +150,10 @@ class SilhouetteLikelihood:
 
     def counts(self, poses: np.ndarray) -> np.ndarray:
         """Pixel counts of poses ``(N, 31)`` -> ``(N, n_cams, 3)`` int64: Nc, Ns, Nm."""
+        return self._counts(self.body.points(self._poses(poses)))
+
+    def _counts(self, pts: np.ndarray) -> np.ndarray:
         sil = self._require_silhouettes()
-        pts = self.body.points(self._poses(poses))
         b = self.body
         return raster.counts_kernel(
             pts,
@@ -164,13 +168,22 @@ class SilhouetteLikelihood:
 
     def weights(self, poses: np.ndarray) -> np.ndarray:
         """Weights of poses ``(N, 31)`` -> ``(N,)`` float64, mean over cameras."""
-        return weight_from_counts(self.counts(poses), self.measure)
+        pts = self.body.points(self._poses(poses))
+        w = weight_from_counts(self._counts(pts), self.measure)
+        if self.appearance is not None and self.appearance.active:  # colour cue
+            w = w * self.appearance.weight_factors(self.body, pts)
+        return w
 
     def counts_factored(
         self, base: np.ndarray, left_leg: np.ndarray, right_leg: np.ndarray
     ) -> np.ndarray:
         """Counts of every leg combination -> ``(M, A, B, n_cams, 3)``; see weights_factored."""
-        sil = self._require_silhouettes()
+        return self._counts_factored(*self._factored_points(base, left_leg, right_leg))
+
+    def _factored_points(
+        self, base: np.ndarray, left_leg: np.ndarray, right_leg: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+        """Model points of the base poses and of every leg variant, and the variant counts."""
         base = self._poses(base)
         m = base.shape[0]
         left = np.asarray(left_leg, dtype=np.float64)
@@ -188,6 +201,13 @@ class SilhouetteLikelihood:
         pts_base = b.points(base, group=0)
         pts_left = b.points(pl.reshape(-1, N_DOF), group=1)
         pts_right = b.points(pr.reshape(-1, N_DOF), group=2)
+        return pts_base, pts_left, pts_right, na, nb_
+
+    def _counts_factored(
+        self, pts_base: np.ndarray, pts_left: np.ndarray, pts_right: np.ndarray, na: int, nb_: int
+    ) -> np.ndarray:
+        sil = self._require_silhouettes()
+        b = self.body
         return raster.counts_factored_kernel(
             pts_base,
             pts_left,
@@ -226,7 +246,11 @@ class SilhouetteLikelihood:
             :meth:`weights` of those poses. The upper body is rendered once per m and each leg
             variant once, then the A*B combinations are OR-ed and counted.
         """
-        return weight_from_counts(self.counts_factored(base, left_leg, right_leg), self.measure)
+        pts = self._factored_points(base, left_leg, right_leg)
+        w = weight_from_counts(self._counts_factored(*pts), self.measure)
+        if self.appearance is not None and self.appearance.active:  # colour cue
+            w = w * self.appearance.factor(self.appearance.scores_factored(self.body, *pts[:3]))
+        return w
 
     def render_mask(self, pose: np.ndarray, camera_index: int) -> np.ndarray:
         """The model's silhouette of one pose (31,) in one camera: bool ``(H, W)``."""

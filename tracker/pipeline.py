@@ -264,6 +264,15 @@ class Tracker:
             likelihood = SilhouetteLikelihood(body, self.lik_cameras)
         self.likelihood = likelihood
         self._lik = _CountingLikelihood(likelihood)
+        #: The colour cue (config.appearance), attached to the likelihood; None when off.
+        self.colour = None
+        if c.appearance.enabled and hasattr(likelihood, "appearance"):
+            from tracker.appearance import ColourCue
+
+            self.colour = ColourCue(
+                [cam.scaled(*c.appearance.size) for cam in self.cameras], c.appearance
+            )
+            likelihood.appearance = self.colour
         self.limits = c.joint_limits().arrays()
         self.rng = rng
         self.filter: Filter = make_filter(c.filter, c, rng=rng, limits=self.limits)
@@ -333,17 +342,29 @@ class Tracker:
 
     def process(self, frame_index: int, time_s: float, frames: Sequence[np.ndarray]) -> FrameResult:
         """Track one time step from the raw frames of every camera."""
-        return self.process_segmentations(frame_index, time_s, self.segment(frames))
+        return self.process_segmentations(frame_index, time_s, self.segment(frames), frames)
 
     def process_segmentations(
-        self, frame_index: int, time_s: float, segs: Sequence[Segmentation]
+        self,
+        frame_index: int,
+        time_s: float,
+        segs: Sequence[Segmentation],
+        frames: Sequence[np.ndarray] | None = None,
     ) -> FrameResult:
-        """Track one time step from already segmented frames (one per camera)."""
+        """Track one time step from already segmented frames (one per camera).
+
+        ``frames`` (the raw BGR frames) feed the colour cue (``config.appearance``); without
+        them it does not score this time step.
+        """
         with _single_thread():  # small batches; the large ones ask for every thread
-            return self._process(frame_index, time_s, segs)
+            return self._process(frame_index, time_s, segs, frames)
 
     def _process(
-        self, frame_index: int, time_s: float, segs: Sequence[Segmentation]
+        self,
+        frame_index: int,
+        time_s: float,
+        segs: Sequence[Segmentation],
+        frames: Sequence[np.ndarray] | None = None,
     ) -> FrameResult:
         self._lik.count = 0
         notes: list[str] = []
@@ -355,6 +376,12 @@ class Tracker:
             return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW + " (silhouette too small)")
         self.likelihood.set_silhouettes(masks)
         self._masks = masks
+        if self.colour is not None:  # colour cue: this frame's colours
+            if frames is None:
+                self.colour.clear_frame()
+            else:
+                same = tuple(self.config.appearance.size) == tuple(self.config.likelihood_size)
+                self.colour.set_frame(frames, masks if same else [s.mask_full for s in segs])
         fp = floor_point(self.lik_cameras, masks)
         self._floor_now = np.full(2, np.nan) if fp is None else np.asarray(fp, dtype=np.float64)
         dt = self._dt(time_s)
@@ -403,6 +430,8 @@ class Tracker:
                 )
             elif status == "initialised" or status == "reinitialised":
                 pose, weight, joints = self._start_alternative(pose, weight, joints)
+        if self.colour is not None:  # colour cue: learn from the estimate
+            self._learn_colour(pose)
         self._remember(pose, time_s, dt, continuous=status == "tracked")
         self._prev_joints = joints
         for n in notes:
@@ -423,6 +452,17 @@ class Tracker:
         if self.prev_time is not None and time_s > self.prev_time:
             return float(time_s - self.prev_time)
         return self.dt_default
+
+    def _learn_colour(self, pose: np.ndarray) -> None:
+        """Update the colour cue's part references from the estimate (gated by its silhouette
+        weight alone)."""
+        from tracker.likelihood import weight_from_counts
+
+        if not self.colour.wants_update():
+            return
+        counts = self.likelihood.counts(pose[None])
+        sil_w = float(weight_from_counts(counts, self.likelihood.measure)[0])
+        self.colour.update(self.body, pose, sil_w)
 
     def _set_body(self, body) -> None:
         self.body = body
