@@ -8,6 +8,7 @@ and on the full clip; the difference gives the steady-state rate without start-u
 first frame's exhaustive initialisation, both are printed::
 
     python3 bench/track_speed.py [--frames 80] [--cameras 2] [--threads 1 2] [--filter ipf]
+        [--config TRACKER.toml]
 
 Target (issue 3) on the 2-core machine: >= 30 frames/s, aim 100.
 """
@@ -111,15 +112,19 @@ def main() -> None:
     ap.add_argument("--cameras", type=int, default=2)
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--filter", default="ipf")
+    ap.add_argument("--config", help="tracker settings file (TOML or YAML) for gaitwatch track")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="gaitwatch-bench-") as tmp:
         folder = Path(tmp)
         t0 = time.perf_counter()
         track_args = make_clip(folder, args.frames, args.cameras)
+        if args.config:
+            track_args += ["--config", str(Path(args.config).resolve())]
         print(
             f"clip: {args.frames} frames, {args.cameras} camera(s), 640x480 MP4, 20 fps "
             f"(rendered in {time.perf_counter() - t0:.1f} s); filter {args.filter}, 6561 "
             "particles, likelihood 160x120"
+            + (f"; settings {args.config}" if args.config else "")
         )
         # Warm the numba cache once so that no run pays compilation.
         run_track(track_args, folder / "warm.mcap", max(args.threads), 2, args.filter)[0]

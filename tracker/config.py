@@ -628,7 +628,7 @@ class AppearanceConfig(_Model):
 
     enabled: Annotated[
         bool, Field(description="Multiply the silhouette weight by the colour agreement")
-    ] = False
+    ] = True
     size: Annotated[
         tuple[int, int], Field(description="Width, height of the colour images (area-averaged)")
     ] = (160, 120)
