@@ -123,8 +123,7 @@ def main() -> None:
         print(
             f"clip: {args.frames} frames, {args.cameras} camera(s), 640x480 MP4, 20 fps "
             f"(rendered in {time.perf_counter() - t0:.1f} s); filter {args.filter}, 6561 "
-            "particles, likelihood 160x120"
-            + (f"; settings {args.config}" if args.config else "")
+            "particles, likelihood 160x120" + (f"; settings {args.config}" if args.config else "")
         )
         # Warm the numba cache once so that no run pays compilation.
         run_track(track_args, folder / "warm.mcap", max(args.threads), 2, args.filter)[0]
