@@ -707,6 +707,28 @@ class Tracker:
         self._redetect_weights = [*recent, weight]
         return pose, weight
 
+    def _reduced_search(self, headings: np.ndarray, dt: float, threads: int):
+        """Re-detection's reduced initial search at this frame's silhouettes: every body
+        configuration (computed once per body), positions around this frame's floor point,
+        the given headings (radians); its grid on ``threads`` numba threads, the refinement on
+        one. Returns :func:`tracker.init.initial_search`'s result or None."""
+        if self._redetect_configs is None or self._redetect_configs[0] is not self.body:
+            configs, _ = body_configurations(self.body, self._redetect_config, self.limits)
+            self._redetect_configs = (self.body, configs)
+        return initial_search(
+            self._lik,
+            self.body,
+            self.lik_cameras,
+            self._masks,
+            self._redetect_config,
+            limits=self.limits,
+            dt=dt,
+            floor_xy=self._floor_now if np.all(np.isfinite(self._floor_now)) else None,
+            headings=headings,
+            configs=self._redetect_configs[1],
+            threads=threads,
+        )
+
     def _redetect_search(
         self, pose: np.ndarray, weight: float, dt: float
     ) -> tuple[np.ndarray, float]:
@@ -718,23 +740,8 @@ class Tracker:
         headings = pose[DOF["root_yaw"]] + (
             np.linspace(-span, span, rc.headings) if rc.headings > 1 else np.zeros(1)
         )
-        if self._redetect_configs is None or self._redetect_configs[0] is not self.body:
-            configs, _ = body_configurations(self.body, self._redetect_config, self.limits)
-            self._redetect_configs = (self.body, configs)
         # The grid (hundreds of poses) on every thread, the refinement's 7 poses on one.
-        res = initial_search(
-            self._lik,
-            self.body,
-            self.lik_cameras,
-            self._masks,
-            self._redetect_config,
-            limits=self.limits,
-            dt=dt,
-            floor_xy=self._floor_now,  # floor_point(self.lik_cameras, self._masks)
-            headings=headings,
-            configs=self._redetect_configs[1],
-            threads=self.threads,
-        )
+        res = self._reduced_search(headings, dt, self.threads)
         if res is None or not res.best_weight > weight + rc.margin:
             return pose, weight
         self.filter.inject(res.poses[: rc.inject], res.weights[: rc.inject], reset_motion=True)
@@ -973,17 +980,7 @@ class Tracker:
         side = np.sign(wrap_angle(travel - pose[DOF["root_yaw"]]))
         centre = travel + side * np.radians(hc.turn_lead_deg)
         headings = centre + (np.linspace(-span, span, n) if n > 1 else np.zeros(1))
-        with _single_thread():
-            res = initial_search(
-                self._lik,
-                self.body,
-                self.lik_cameras,
-                self._masks,
-                self._redetect_config,
-                limits=self.limits,
-                dt=dt,
-                headings=headings,
-            )
+        res = self._reduced_search(headings, dt, 1)
         if res is None:
             return None
         new, w = res.best, float(res.best_weight)
