@@ -39,7 +39,10 @@ Run::
 ``--filters`` also accepts non-default variants for experiments: ``ipf-published`` (the method
 as published: intervals centred on the particle's value, fixed width, one pass, the M heaviest
 distinct particles kept), ``ipf-wide`` (``ipf.interval_deg = 30``) and ``ipf-above``
-(``floor = above``: feet may float above the floor, the default before session 3).
+(``floor = above``: feet may float above the floor, the default before session 3),
+``ipf-nocolour`` (``appearance.enabled = false``: silhouette only, the default before session 4).
+``--one-colour`` dresses every person in one plain colour (top, trousers and shoes alike): the
+colour cue then has little to hold.
 
 View specs: ``side``, ``oblique``, ``frontal``, several joined by ``+`` (one camera each, e.g.
 ``side+frontal``), optionally ``@table`` or ``@sofa`` for an occluder in front of the first
@@ -142,6 +145,7 @@ FILTER_VARIANTS: dict[str, dict] = {
     },
     "ipf-wide": {"filter": "ipf", "ipf": {"interval_deg": 30.0}},
     "ipf-above": {"filter": "ipf", "floor": "above"},
+    "ipf-nocolour": {"filter": "ipf", "appearance": {"enabled": False}},
 }
 ALL_FILTERS = tuple(FILTER_VARIANTS)
 VIEWS = ("side", "oblique", "frontal")
@@ -246,11 +250,27 @@ def load_recording(name: str, data: Path) -> Trajectory:
     return _MOTIONS[name]
 
 
-def build(name: str, view: ViewSpec, max_frames: int, seed: int, data: Path):
+ONE_COLOUR = (85, 90, 100)  # RGB of --one-colour's clothes (a dull blue-grey)
+
+
+def build(
+    name: str, view: ViewSpec, max_frames: int, seed: int, data: Path, one_colour: bool = False
+):
     from gaitwatch.sim.scene import BodyShape, Clothing, Room, SceneConfig
     from gaitwatch.sim.synth import build_scene
 
     rec = RECORDINGS[name]
+    clothing = (
+        Clothing(
+            style=rec.clothing,
+            pattern="plain",
+            shirt=ONE_COLOUR,
+            trousers=ONE_COLOUR,
+            shoes=ONE_COLOUR,
+        )
+        if one_colour
+        else Clothing(style=rec.clothing)
+    )
     cfg = SceneConfig(
         views=list(view.views),
         fps=20.0,
@@ -258,7 +278,7 @@ def build(name: str, view: ViewSpec, max_frames: int, seed: int, data: Path):
         max_frames=max_frames,
         seed=seed,
         body=BodyShape(preset=rec.shape),
-        clothing=Clothing(style=rec.clothing),
+        clothing=clothing,
         room=Room(occluder=view.occluder),
         masks=True,
     )
@@ -803,8 +823,9 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
   tracker defaults (`TrackerConfig()`, likelihood 160x120), given the empty-scene background
   and the true stature; seed {args.seed}. Total run time {elapsed_s / 60:.1f} min.
 - Bodies differ from the tracker's model: shape preset / clothing per recording (column
-  "body"); a 90 degree turn in 16_18; occluders (`@table`, `@sofa`) stand between the first
-  camera and the walk.
+  "body"){"; every person dressed in one plain colour (--one-colour)" if args.one_colour else ""};
+  a 90 degree turn in 16_18; occluders (`@table`, `@sofa`) stand between the first camera and
+  the walk.
 - Metrics (`gaitwatch.evaluation`): mean per-joint position error over the 19 key points and
   over the lower limbs (hips, knees, ankles, heels, toes), per group; hip and knee flexion RMSE
   (gait.kinematics, both sides); L/R swap = share of tracked frames where exchanging the
@@ -874,6 +895,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     ap.add_argument("--max-frames", type=int, default=None, help="frames per scene (default 40)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--one-colour",
+        action="store_true",
+        help="dress every person in one plain colour (top, trousers and shoes alike)",
+    )
     ap.add_argument("--direct", action="store_true", help="track rendered frames (no video codec)")
     ap.add_argument("--data", type=Path, default=DATA, help="the shared recordings folder")
     ap.add_argument("--overlays", type=Path, help="write worst-frame overlays (PNG) here")
@@ -924,7 +950,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="gaitwatch-accuracy-") as tmpd:
         for si, (rec, view) in enumerate(plan):
             bar.set_description(f"{rec} {view.label}: rendering")
-            scene = build(rec, view, args.max_frames, args.seed, args.data)
+            scene = build(rec, view, args.max_frames, args.seed, args.data, args.one_colour)
             frames, masks, bgs, cams, truth = scene_frames(
                 scene, args.direct, Path(tmpd) / f"s{si}"
             )
