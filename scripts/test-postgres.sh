@@ -51,7 +51,7 @@ trap cleanup EXIT
   -o "-k $DIR -p $PORT -c listen_addresses=''" start >/dev/null \
   || { cat "$DIR/server.log"; echo "test-postgres: the server did not start"; exit 1; }
 
-echo "test-postgres: PostgreSQL $("${RUN[@]}" "$PG_CTL" --version | awk '{print $NF}') on $DIR:$PORT"
+echo "test-postgres: $("${RUN[@]}" "$PG_CTL" --version) on $DIR, port $PORT"
 GAITWATCH_TEST_POSTGRES_URL="postgresql+psycopg://gaitwatch@/postgres?host=$DIR&port=$PORT" \
   .venv/bin/python -m pytest -q -p no:cacheprovider \
   tests/test_db_ingest.py tests/test_db_erasure.py tests/test_migrations.py \
