@@ -371,15 +371,20 @@ class ColourCue:
             sel = self._sel_cache[group] = np.flatnonzero(on).astype(np.int64)
         return sel
 
-    def _sums(self, body: BodyModel, pts: np.ndarray, group: int | None) -> np.ndarray:
+    def _score_maps(self) -> np.ndarray:
+        """This frame's per-part score maps (computed at the first scoring of the frame)."""
         if self._maps is None:
             self._maps = score_maps_kernel(
                 self.img, self.mask, self.ref, self.inv2s2, self._part_on
             )
+        return self._maps
+
+    def _sums(self, body: BodyModel, pts: np.ndarray, group: int | None) -> np.ndarray:
+        maps = self._score_maps()
         args = (pts, self._sel(body, group), body.cap_ab, self.cap_part, self.cams, self.cam_hw)
         if pts.shape[0] < SERIAL_BELOW or nb.get_num_threads() == 1:
-            return _colour_sums_serial(*args, self._maps, self.ts)
-        return colour_sums_kernel(*args, self._maps, self.ts, 4 * nb.get_num_threads())
+            return _colour_sums_serial(*args, maps, self.ts)
+        return colour_sums_kernel(*args, maps, self.ts, 4 * nb.get_num_threads())
 
     def _norm(self) -> float:
         return float(self._n_scored * self.ts.size)
@@ -405,10 +410,6 @@ class ColourCue:
         """``factor(scores(body, pts))`` ``(N,)``; small batches in one kernel call."""
         if pts.shape[0] >= SERIAL_BELOW and nb.get_num_threads() > 1:
             return self.factor(self.scores(body, pts))
-        if self._maps is None:
-            self._maps = score_maps_kernel(
-                self.img, self.mask, self.ref, self.inv2s2, self._part_on
-            )
         typ = self.typical if self.typical else 1.0
         return _factors_serial(
             pts,
@@ -417,7 +418,7 @@ class ColourCue:
             self.cap_part,
             self.cams,
             self.cam_hw,
-            self._maps,
+            self._score_maps(),
             self.ts,
             1.0 / (self._norm() * typ),
             float(self.config.beta),

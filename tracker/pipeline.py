@@ -313,7 +313,6 @@ class Tracker:
         self._heading_checked_until = -np.inf
         #: The opposite heading hypothesis after an initialisation (init.both_headings).
         self._alt: _Hypothesis | None = None
-        self._time_now = 0.0
         self._girth_frames_left = c.init.girth_frames
         self._masks: list[np.ndarray] = []
         self._tracked_frames = 0
@@ -385,7 +384,6 @@ class Tracker:
         fp = floor_point(self.lik_cameras, masks)
         self._floor_now = np.full(2, np.nan) if fp is None else np.asarray(fp, dtype=np.float64)
         dt = self._dt(time_s)
-        self._time_now = float(time_s)
         if self.need_init:
             status = "initialised" if self.prev_time is None else "reinitialised"
             est = self._initialise(masks, dt)
@@ -429,7 +427,7 @@ class Tracker:
                     pose, weight, joints, dt, time_s, notes
                 )
             elif status == "initialised" or status == "reinitialised":
-                pose, weight, joints = self._start_alternative(pose, weight, joints)
+                pose, weight, joints = self._start_alternative(pose, weight, joints, time_s)
         if self.colour is not None:  # colour cue: learn from the estimate
             self._learn_colour(pose)
         self._remember(pose, time_s, dt, continuous=status == "tracked")
@@ -569,7 +567,7 @@ class Tracker:
         self._path, a.path = a.path, self._path
 
     def _start_alternative(
-        self, pose: np.ndarray, weight: float, joints: np.ndarray
+        self, pose: np.ndarray, weight: float, joints: np.ndarray, time_s: float
     ) -> tuple[np.ndarray, float, np.ndarray]:
         """After an initialisation: floor-constrain the alternative; the heavier one leads."""
         a = self._alt
@@ -582,7 +580,7 @@ class Tracker:
             self.filter, a.filter = a.filter, self.filter
             a.pose, a.weight, a.joints = pose, weight, joints
             pose, weight, joints = apose, aweight, ajoints
-        a.path = [self._path_entry(self._time_now, a.pose)]
+        a.path = [self._path_entry(time_s, a.pose)]
         return pose, weight, joints
 
     def _track_alternative(
