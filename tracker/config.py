@@ -340,6 +340,14 @@ class RedetectConfig(_Model):
     refined by the origin search. When the best weighs more than the estimate by ``margin``, it
     becomes the estimate and the best few join the filter's particle set. It catches a track that
     slid away from the person (one camera's depth ambiguity, a fast turn) before it is lost.
+
+    A coarse grid pose seldom outweighs an estimate the filter has refined over many frames, even
+    when it lies in the right basin and the estimate does not. So when the search's best weighs
+    at least ``refine_ratio`` times the estimate without outweighing it, the filter is seeded with
+    the ``refine_candidates`` best candidates and stepped ``refine_steps`` times on this frame
+    (then the origin search, as after the filter); the result replaces the estimate when heavier
+    by ``margin``, else the particle set is restored. It costs up to ``refine_steps`` filter steps
+    on the frames where it runs.
     """
 
     enabled: bool = True
@@ -376,6 +384,27 @@ class RedetectConfig(_Model):
     max_skipped: Annotated[
         int, Field(ge=0, le=1000, description="At most this many frames in a row skipped")
     ] = 3
+    refine_steps: Annotated[
+        int,
+        Field(
+            ge=0,
+            le=10,
+            description="Filter steps refining the search's candidates before they are "
+            "compared with the estimate (see refine_ratio); 0: compare the grid's best as is",
+        ),
+    ] = 2
+    refine_ratio: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="Refine when the search's best weighs at least this fraction of the "
+            "estimate (a candidate that could win once refined)",
+        ),
+    ] = 0.65
+    refine_candidates: Annotated[
+        int, Field(ge=1, le=1000, description="Best candidates seeding the refining filter")
+    ] = 9
 
 
 class HeadingCheckConfig(_Model):

@@ -740,11 +740,46 @@ class Tracker:
         )
         # The grid (hundreds of poses) on every thread, the refinement's 7 poses on one.
         res = self._reduced_search(headings, dt, self.threads)
-        if res is None or not res.best_weight > weight + rc.margin:
+        if res is None:
             return pose, weight
-        self.filter.inject(res.poses[: rc.inject], res.weights[: rc.inject], reset_motion=True)
-        log.debug("re-detected: weight %.3f -> %.3f", weight, res.best_weight)
-        return res.best.copy(), float(res.best_weight)
+        if res.best_weight > weight + rc.margin:
+            self.filter.inject(res.poses[: rc.inject], res.weights[: rc.inject], reset_motion=True)
+            log.debug("re-detected: weight %.3f -> %.3f", weight, res.best_weight)
+            return res.best.copy(), float(res.best_weight)
+        if rc.refine_steps == 0 or res.best_weight < rc.refine_ratio * weight:
+            return pose, weight
+        # The grid's best may lie in the right basin without outweighing an estimate refined
+        # over many frames: refine its best candidates with the filter before comparing.
+        k = rc.refine_candidates
+        new, w, saved = self._trial_steps(res.poses[:k], res.weights[:k], dt, rc.refine_steps)
+        if self.config.origin.enabled and self.config.origin.after_filter:
+            new, w = self._refine_origin(new, w, dt)
+        if not w > weight + rc.margin:
+            self.filter.__dict__.update(saved)
+            return pose, weight
+        log.debug("re-detected after refinement: weight %.3f -> %.3f", weight, w)
+        return new, w
+
+    def _trial_steps(
+        self, poses: np.ndarray, weights: np.ndarray, dt: float, steps: int
+    ) -> tuple[np.ndarray, float, dict]:
+        """Seed the filter with candidates (heaviest first) and step it ``steps`` times on this
+        frame's silhouettes.
+
+        Returns the heaviest of the best candidate and the steps' estimates, its weight, and the
+        filter's state before the trial (``self.filter.__dict__.update(saved)`` restores it when
+        the trial is not adopted).
+        """
+        f = self.filter
+        saved = dict(f.__dict__)
+        f.initialise(poses, weights)
+        best, w = poses[0].copy(), float(weights[0])
+        for _ in range(steps):
+            with _numba_threads(self.threads):
+                est = f.step(self._lik, dt)
+            if est.weight > w:
+                best, w = est.pose.copy(), float(est.weight)
+        return best, w, saved
 
     def _refine_pose(self, pose: np.ndarray, weight: float, dt: float) -> tuple[np.ndarray, float]:
         """Local coordinate search of the estimate (:mod:`tracker.refine`); joins the particles."""
@@ -987,15 +1022,9 @@ class Tracker:
         if hc.turn_refine:
             # One filter step seeded with the turned candidates; the particle set is kept
             # unless the refined estimate wins.
-            f = self.filter
-            saved = dict(f.__dict__)
-            f.initialise(res.poses, res.weights)
-            with _numba_threads(self.threads):
-                est = f.step(self._lik, dt)
-            if est.weight > w:
-                new, w = est.pose, float(est.weight)
+            new, w, saved = self._trial_steps(res.poses, res.weights, dt, 1)
             if not w > weight + hc.turn_margin:
-                f.__dict__.update(saved)
+                self.filter.__dict__.update(saved)
                 return None
             if self.config.origin.enabled and self.config.origin.after_filter:
                 new, w = self._refine_origin(new, w, dt)
