@@ -971,18 +971,32 @@ class Tracker:
             )
         self._path = []
         self._heading_checked_until = time_s + hc.cooldown_s
-        if res is None or res.best_weight < hc.accept_ratio * weight:
+        if res is None:
             return None
-        if hc.leg_choice == "refine":
+        rc = self.config.redetect
+        if res.best_weight < hc.accept_ratio * weight:
+            # The coarse grid facing the walking direction seldom matches an estimate refined
+            # over many frames: refine its candidates as re-detection does before deciding.
+            if (
+                rc.refine_steps == 0
+                or hc.leg_choice == "refine"
+                or res.best_weight < rc.refine_ratio * weight
+            ):
+                return None
+            poses, weights = res.poses, res.weights
+            if hc.leg_choice == "feet":
+                poses, weights = self._feet_continuity(pose, poses, weights, hc)
+            new, w, saved = self._trial_steps(poses, weights, dt, rc.refine_steps)
+            if w < hc.accept_ratio * weight:
+                self.filter.__dict__.update(saved)
+                return None
+        elif hc.leg_choice == "refine":
             new, w = self._flip_modes(pose, res.poses, res.weights, dt, hc)
         else:
             poses, weights = res.poses, res.weights
             if hc.leg_choice == "feet":
                 poses, weights = self._feet_continuity(pose, poses, weights, hc)
-            self.filter.initialise(poses, weights)
-            with _numba_threads(self.threads):
-                est = self.filter.step(self._lik, dt)
-            new, w = (est.pose, est.weight) if est.weight >= weights[0] else (poses[0], weights[0])
+            new, w, _ = self._trial_steps(poses, weights, dt, 1)
         return (
             new.copy(),
             float(w),
