@@ -401,7 +401,7 @@ class RedetectConfig(_Model):
             description="Refine when the search's best weighs at least this fraction of the "
             "estimate (a candidate that could win once refined)",
         ),
-    ] = 0.65
+    ] = 0.75
     refine_candidates: Annotated[
         int, Field(ge=1, le=1000, description="Best candidates seeding the refining filter")
     ] = 9
