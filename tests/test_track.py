@@ -323,7 +323,9 @@ def test_redetect_refinement_not_adopted_restores_the_particles(clip: dict) -> N
     filter's particle set exactly as the filter left them."""
     from tracker.config import RedetectConfig
 
-    tracker = _tracker_after_first_frame(clip, redetect=RedetectConfig(margin=0.9))  # no win
+    tracker = _tracker_after_first_frame(
+        clip, redetect=RedetectConfig(margin=0.9, refine_steps=2)  # nothing can win
+    )
     calls = _grid_capped_at_the_estimate(tracker)
     steps = []
     step = tracker.filter.step
@@ -584,8 +586,9 @@ def test_redetect_skipped_while_stable_still_catches_a_slide(clip: dict) -> None
     runs, and recovers the track, when a slide off the person drops the weight."""
     from tracker.config import RedetectConfig
 
-    # Without the refinement of re-detection's candidates: adopted refinements raise the weight
-    # by steps (measured 0.76 -> 0.87 over this clip's first frames), so few frames are stable.
+    # Without the refinement of re-detection's candidates (the default): adopted refinements
+    # raise the weight by steps (measured 0.76 -> 0.87 over this clip's first frames), so few
+    # frames are stable.
     tracker = _tracker_after_first_frame(clip, redetect=RedetectConfig(refine_steps=0))
     rc = tracker.config.redetect
     searched = []
