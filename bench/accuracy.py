@@ -445,13 +445,41 @@ def fit_metrics(stature: float, fits: dict[int, np.ndarray], truth: Trajectory) 
     return evaluate(truth, est)
 
 
-def track(
-    frames, masks, bgs, cams, stature: float, fps: float, filt: str, seed: int, bar, fits=None
-):
+def _merged(base: dict, over: dict) -> dict:
+    """``base`` with ``over``'s fields on top (nested sections merged, not replaced)."""
+    out = dict(base)
+    for key, value in over.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = _merged(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def variant_config(filt: str, settings: dict | None = None):
+    """The TrackerConfig of filter variant ``filt`` over ``settings`` (a settings file's
+    fields; None: the defaults)."""
     from tracker.config import TrackerConfig
+
+    return TrackerConfig.model_validate(_merged(settings or {}, FILTER_VARIANTS[filt]))
+
+
+def track(
+    frames,
+    masks,
+    bgs,
+    cams,
+    stature: float,
+    fps: float,
+    filt: str,
+    seed: int,
+    bar,
+    fits=None,
+    settings: dict | None = None,
+):
     from tracker.pipeline import Tracker
 
-    cfg = TrackerConfig.model_validate(FILTER_VARIANTS[filt])
+    cfg = variant_config(filt, settings)
     tr = Tracker(cams, cfg, rng=np.random.default_rng(seed), height_m=stature, backgrounds=bgs)
     out_f, out_t, joints, times_ms, ev_tr, ev_init, statuses = [], [], [], [], [], [], []
     seg_iou, est_iou, seen, weights, fit_w, est_w = [], [], [], [], [], []
@@ -820,7 +848,7 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
         if args.direct
         else "mp4v video written and decoded"
     }; at most {args.max_frames} frames per scene;
-  tracker defaults (`TrackerConfig()`, likelihood 160x120), given the empty-scene background
+  {f"tracker settings `{args.config}` over the defaults (" if args.config else "tracker defaults (`TrackerConfig()`, "}likelihood 160x120), given the empty-scene background
   and the true stature; seed {args.seed}. Total run time {elapsed_s / 60:.1f} min.
 - Bodies differ from the tracker's model: shape preset / clothing per recording (column
   "body"){"; every person dressed in one plain colour (--one-colour)" if args.one_colour else ""};
@@ -909,6 +937,12 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         default=3,
         help="fit the tracker's model to the truth on every N-th frame (diagnostics)",
     )
+    ap.add_argument(
+        "--config",
+        type=Path,
+        help="tracker settings file (TOML or YAML, as for gaitwatch track) under every filter "
+        "variant (the variant's own fields win)",
+    )
     ap.add_argument("--out", type=Path, default=REPO / "bench" / "RESULTS.md")
     ap.add_argument("--no-out", action="store_true", help="print only, write no file")
     args = ap.parse_args(argv)
@@ -943,6 +977,15 @@ def main(argv: list[str] | None = None) -> int:
     bad = [f for f in filters if f not in FILTER_VARIANTS]
     if bad:
         raise SystemExit(f"unknown filter(s): {', '.join(bad)}")
+    settings = None
+    if args.config is not None:
+        from tracker.config import TrackerConfigError, load_tracker_config
+
+        try:
+            settings = load_tracker_config(args.config).model_dump(exclude_unset=True)
+        except TrackerConfigError as err:
+            print(f"accuracy: {err}", file=sys.stderr)
+            return 2
     plan = make_plan(args)
     t_start = time.perf_counter()
     runs: list[Run] = []
@@ -972,6 +1015,7 @@ def main(argv: list[str] | None = None) -> int:
                     args.seed,
                     bar,
                     fits,
+                    settings,
                 )
                 m = evaluate(
                     truth,
