@@ -586,9 +586,8 @@ def test_redetect_skipped_while_stable_still_catches_a_slide(clip: dict) -> None
     runs, and recovers the track, when a slide off the person drops the weight."""
     from tracker.config import RedetectConfig
 
-    # Without the refinement of re-detection's candidates (the default): adopted refinements
-    # raise the weight by steps (measured 0.76 -> 0.87 over this clip's first frames), so few
-    # frames are stable.
+    # Without the refinement of re-detection's candidates: adopted refinements raise the weight
+    # by steps (measured 0.76 -> 0.87 over this clip's first frames), so few frames are stable.
     tracker = _tracker_after_first_frame(clip, redetect=RedetectConfig(refine_steps=0))
     rc = tracker.config.redetect
     searched = []

@@ -347,8 +347,7 @@ class RedetectConfig(_Model):
     the ``refine_candidates`` best candidates and stepped ``refine_steps`` times on this frame
     (then the origin search, as after the filter); the result replaces the estimate when heavier
     by ``margin``, else the particle set is restored. It costs up to ``refine_steps`` filter steps
-    on the frames where it runs. Off by default: it helps the baselines more than the IPF (see
-    docs/tracker.md, re-detection).
+    on the frames where it runs (the tracker goes from about 45 to 34 frames/s).
     """
 
     enabled: bool = True
@@ -393,7 +392,7 @@ class RedetectConfig(_Model):
             description="Filter steps refining the search's candidates before they are "
             "compared with the estimate (see refine_ratio); 0: compare the grid's best as is",
         ),
-    ] = 0
+    ] = 2
     refine_ratio: Annotated[
         float,
         Field(
