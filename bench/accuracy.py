@@ -832,6 +832,11 @@ def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float
     tgt, _ = targets(runs)
     load = os.getloadavg() if hasattr(os, "getloadavg") else (math.nan,) * 3
     cmd = "python3 bench/accuracy.py" + ("" if not argv else " " + shlex.join(argv))
+    settings_text = (
+        f"tracker settings `{args.config}` over the defaults ("
+        if args.config
+        else "tracker defaults (`TrackerConfig()`, "
+    )
     body = f"""# Tracker accuracy on synthetic footage of real motion capture
 
 Written by `bench/accuracy.py` (issue 4). Reproduce with:
@@ -848,7 +853,7 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
         if args.direct
         else "mp4v video written and decoded"
     }; at most {args.max_frames} frames per scene;
-  {f"tracker settings `{args.config}` over the defaults (" if args.config else "tracker defaults (`TrackerConfig()`, "}likelihood 160x120), given the empty-scene background
+  {settings_text}likelihood 160x120), given the empty-scene background
   and the true stature; seed {args.seed}. Total run time {elapsed_s / 60:.1f} min.
 - Bodies differ from the tracker's model: shape preset / clothing per recording (column
   "body"){"; every person dressed in one plain colour (--one-colour)" if args.one_colour else ""};

@@ -271,7 +271,6 @@ def test_redetect_recovers_a_track_that_slid_away(clip: dict, enabled: bool) -> 
         assert sacrum_err > 0.3
 
 
-
 def _grid_capped_at_the_estimate(tracker) -> list[tuple[float, float]]:
     """Make re-detection's grid look no heavier than the estimate: its weights are scaled so its
     best equals the estimate's weight (a coarse pose that does not win as it is). Returns the
@@ -324,7 +323,8 @@ def test_redetect_refinement_not_adopted_restores_the_particles(clip: dict) -> N
     from tracker.config import RedetectConfig
 
     tracker = _tracker_after_first_frame(
-        clip, redetect=RedetectConfig(margin=0.9, refine_steps=2)  # nothing can win
+        clip,
+        redetect=RedetectConfig(margin=0.9, refine_steps=2),  # nothing can win
     )
     calls = _grid_capped_at_the_estimate(tracker)
     steps = []
@@ -353,6 +353,7 @@ def test_redetect_refinement_not_adopted_restores_the_particles(clip: dict) -> N
     assert np.array_equal(seen["before"][1], seen["after"][1])
     pose, weight, out_pose, out_weight = seen["in_out"]
     assert np.array_equal(pose, out_pose) and weight == out_weight
+
 
 # -- the command line -----------------------------------------------------------------------------
 def test_track_cli_round_trip_and_seed(clip: dict, tmp_path: Path, capsys) -> None:
