@@ -543,16 +543,19 @@ class Tracker:
         return self._seed_and_step(self.filter, poses, weights, dt)
 
     def _seed_and_step(
-        self, filt: Filter, poses: np.ndarray, weights: np.ndarray, dt: float
+        self, filt: Filter, poses: np.ndarray, weights: np.ndarray, dt: float, steps: int = 1
     ) -> tuple[np.ndarray, float]:
-        """Seed ``filt`` with candidates (heaviest first) and step it once; the heavier of its
-        estimate and the best candidate."""
+        """Seed ``filt`` with candidates (heaviest first) and step it ``steps`` times on this
+        frame's silhouettes; the heaviest of the best candidate and the steps' estimates (an
+        estimate wins a tie)."""
         filt.initialise(poses, weights)
-        with _numba_threads(self.threads):
-            est = filt.step(self._lik, dt)
-        if est.weight >= weights[0]:
-            return est.pose.copy(), float(est.weight)
-        return poses[0].copy(), float(weights[0])
+        best, w = poses[0].copy(), float(weights[0])
+        for _ in range(steps):
+            with _numba_threads(self.threads):
+                est = filt.step(self._lik, dt)
+            if est.weight >= w:
+                best, w = est.pose.copy(), float(est.weight)
+        return best, w
 
     # -- the opposite heading hypothesis (init.both_headings) --------------------------------
     def _swap_alternative(self) -> None:
@@ -671,8 +674,7 @@ class Tracker:
         if swapped is not None:
             pose, weight = swapped
         pose, weight = self._redetect(pose, weight, dt)
-        if c.origin.enabled and c.origin.after_filter:
-            pose, weight = self._refine_origin(pose, weight, dt)
+        pose, weight = self._refine_origin(pose, weight, dt)
         if c.refine.enabled:
             pose, weight = self._refine_pose(pose, weight, dt)
         return pose, weight
@@ -752,8 +754,7 @@ class Tracker:
         # over many frames: refine its best candidates with the filter before comparing.
         k = rc.refine_candidates
         new, w, saved = self._trial_steps(res.poses[:k], res.weights[:k], dt, rc.refine_steps)
-        if self.config.origin.enabled and self.config.origin.after_filter:
-            new, w = self._refine_origin(new, w, dt)
+        new, w = self._refine_origin(new, w, dt)
         if not w > weight + rc.margin:
             self.filter.__dict__.update(saved)
             return pose, weight
@@ -763,22 +764,12 @@ class Tracker:
     def _trial_steps(
         self, poses: np.ndarray, weights: np.ndarray, dt: float, steps: int
     ) -> tuple[np.ndarray, float, dict]:
-        """Seed the filter with candidates (heaviest first) and step it ``steps`` times on this
-        frame's silhouettes.
-
-        Returns the heaviest of the best candidate and the steps' estimates, its weight, and the
-        filter's state before the trial (``self.filter.__dict__.update(saved)`` restores it when
-        the trial is not adopted).
+        """:meth:`_seed_and_step` on the tracker's filter, keeping the filter's state before the
+        trial: returns the pose, its weight and that state
+        (``self.filter.__dict__.update(saved)`` restores it when the trial is not adopted).
         """
-        f = self.filter
-        saved = dict(f.__dict__)
-        f.initialise(poses, weights)
-        best, w = poses[0].copy(), float(weights[0])
-        for _ in range(steps):
-            with _numba_threads(self.threads):
-                est = f.step(self._lik, dt)
-            if est.weight > w:
-                best, w = est.pose.copy(), float(est.weight)
+        saved = dict(self.filter.__dict__)
+        best, w = self._seed_and_step(self.filter, poses, weights, dt, steps)
         return best, w, saved
 
     def _refine_pose(self, pose: np.ndarray, weight: float, dt: float) -> tuple[np.ndarray, float]:
@@ -798,8 +789,11 @@ class Tracker:
     def _refine_origin(
         self, pose: np.ndarray, weight: float, dt: float
     ) -> tuple[np.ndarray, float]:
-        """Search the origin again holding the filter's new body parts; adopt if heavier."""
+        """Search the origin again holding the filter's new body parts; adopt if heavier
+        (``origin.after_filter``; otherwise the pose as it is)."""
         c = self.config
+        if not (c.origin.enabled and c.origin.after_filter):
+            return pose, weight
         with _single_thread():
             res = search_origin(
                 self._lik,
@@ -1040,8 +1034,7 @@ class Tracker:
             if not w > weight + hc.turn_margin:
                 self.filter.__dict__.update(saved)
                 return None
-            if self.config.origin.enabled and self.config.origin.after_filter:
-                new, w = self._refine_origin(new, w, dt)
+            new, w = self._refine_origin(new, w, dt)
         else:
             if not w > weight + hc.turn_margin:
                 return None
