@@ -629,6 +629,17 @@ def test_cmu_bvh(shared_data, rel):
         assert np.hypot(*d) > 2.0  # walks
         assert d[0] * width[1] - d[1] * width[0] > 0  # the subject's left is on the left
         assert 0.85 < np.median(P[:, KP["sacrum"], 2]) < 1.1
+    # CONVENTIONS' trunk points: the neck at C7 level (above the shoulder joints, where CMU's
+    # Neck joint is 5 cm below them), the sacrum (mid-PSIS) behind the hip joint centres.
+    shoulders = 0.5 * (P[:, KP["left_shoulder"]] + P[:, KP["right_shoulder"]])
+    assert 0.0 < np.median(P[:, KP["neck"], 2] - shoulders[:, 2]) < 0.06
+    hips = 0.5 * (P[:, KP["left_hip"]] + P[:, KP["right_hip"]])
+    across = P[:, KP["left_hip"]] - P[:, KP["right_hip"]]
+    forward = np.cross(across, [0.0, 0.0, 1.0])
+    forward /= np.linalg.norm(forward, axis=1, keepdims=True)
+    behind = -np.einsum("ti,ti->t", P[:, KP["sacrum"]] - hips, forward)
+    assert 0.11 < np.median(behind) < 0.17
+    assert "Neck1" in t.mapping_info["methods"]["neck"]
 
 
 def test_cmu_sit_to_stand_heights(shared_data):

@@ -143,15 +143,16 @@ def test_flip_feet_choice_seeds_the_filter_with_the_feet_in_place(walk: dict) ->
 
 @pytest.fixture(scope="module")
 def backwards_start_scene(shared_data) -> dict:
-    """A CMU slow walk (07_04, from 0.3 s) rendered for two cameras (side and frontal), 12
-    frames: the first frame's exhaustive search faces it backwards (measured: 150 deg off)."""
+    """A CMU slow walk (07_04, from 0.5 s) rendered for two cameras (side and frontal), 12
+    frames: the first frame's exhaustive search faces it backwards (measured: 164 deg off; the
+    clip from 0.3 s did so until the reader put the neck at C7, session 6)."""
     from gaitwatch.mocap import load_mocap
     from gaitwatch.sim.scene import BodyShape, Clothing, SceneConfig
     from gaitwatch.sim.synth import build_scene, render_background, render_frames
     from gaitwatch.trajectory import Trajectory
 
     tr = load_mocap(shared_data / "cmu/07_04.bvh")
-    keep = tr.times >= tr.times[0] + 0.3
+    keep = tr.times >= tr.times[0] + 0.5
     motion = Trajectory(
         positions=tr.positions[keep], times=tr.times[keep] - tr.times[keep][0], fps=tr.fps
     )

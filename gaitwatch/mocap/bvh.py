@@ -38,6 +38,13 @@ from gaitwatch.trajectory import Trajectory
 log = logging.getLogger(__name__)
 
 CMU_SCALE_M = 0.056444
+
+#: CMU skeleton: the sacrum (mid-point of the posterior iliac spines) is this fraction of the leg
+#: length (thigh + shank) behind the mid-point of the hip joint centres. The skeleton has no such
+#: point: its root (Hips) sits at the pelvis centre, 37 mm behind the hip joints. The marker
+#: recordings of ../shared/data put the mid-PSIS 115-158 mm behind the hip joint centres, 0.13,
+#: 0.18 and 0.21 of their leg lengths; 0.17 is the mean.
+CMU_SACRUM_BEHIND_HIPS_PER_LEG = 0.17
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
 
@@ -358,6 +365,54 @@ def bvh_keypoints(bvh: BVH, G: np.ndarray) -> tuple[np.ndarray, dict[str, str]]:
     return P, methods
 
 
+def _cmu_neck(P: np.ndarray, G: np.ndarray, names: list[str], methods: dict[str, str]) -> None:
+    """The CMU skeleton's neck as CONVENTIONS define it (base of the neck, C7 level), in place.
+
+    The Neck1 joint: CMU's Neck joint is the top of the thorax, 5 cm below the shoulder joints;
+    Neck1 is 3 cm above them, as C7 is.
+    """
+    norm = {_norm(n): i for i, n in enumerate(names)}
+    if "neck1" in norm:
+        P[:, KP["neck"]] = G[:, norm["neck1"]]
+        methods["neck"] = "joint Neck1 (C7 level; CMU's Neck joint is the top of the thorax)"
+
+
+def _cmu_sacrum(P: np.ndarray, methods: dict[str, str]) -> None:
+    """The CMU skeleton's sacrum as CONVENTIONS define it, in place (z up).
+
+    * **sacrum** (mid-point of the posterior iliac spines): the root (Hips) moved horizontally
+      backwards, along the pelvis's forward direction (perpendicular to the hip line), to
+      :data:`CMU_SACRUM_BEHIND_HIPS_PER_LEG` of the leg length behind the hip joint centres; its
+      height is the root's (about 10 cm above the hip joint centres, as on the marker recordings).
+    """
+    lh, rh = P[:, KP["left_hip"]], P[:, KP["right_hip"]]
+    across = lh - rh
+    across[:, 2] = 0.0
+    forward = np.cross(jc.unit(across), np.array([0.0, 0.0, 1.0]))
+    mid = 0.5 * (lh + rh)
+
+    def bone(a: str, b: str) -> float:
+        return float(np.median(np.linalg.norm(P[:, KP[a]] - P[:, KP[b]], axis=1)))
+
+    # thigh + shank (bones of a rigid skeleton: the same whatever the knee angle)
+    leg = float(
+        np.mean(
+            [
+                bone(f"{s}_hip", f"{s}_knee") + bone(f"{s}_knee", f"{s}_ankle")
+                for s in ("left", "right")
+            ]
+        )
+    )
+    sac = P[:, KP["sacrum"]]
+    ahead = np.einsum("ti,ti->t", sac - mid, forward)  # the root's distance ahead of the hips
+    shift = -(ahead + CMU_SACRUM_BEHIND_HIPS_PER_LEG * leg)
+    P[:, KP["sacrum"]] = sac + shift[:, None] * forward
+    methods["sacrum"] = (
+        f"joint Hips moved {np.median(-shift) * 1000:.0f} mm backwards, to "
+        f"{CMU_SACRUM_BEHIND_HIPS_PER_LEG} leg lengths behind the hip joints (mid-PSIS)"
+    )
+
+
 def load_bvh(
     path: str | Path,
     *,
@@ -410,6 +465,8 @@ def load_bvh(
             log.info("%s: first frame is a reference pose, dropped", path)
     G = G[first:]
     P, methods = bvh_keypoints(bvh, G)
+    if cmu:
+        _cmu_neck(P, G, names, methods)
     idx = map_joints(names)
     need = {"left_ankle", "right_ankle", "left_hip", "right_hip"}
     if not need <= set(idx):
@@ -440,6 +497,8 @@ def load_bvh(
             right = P[:, KP["right_hip"]] - P[:, KP["left_hip"]]
             P[:, KP[f"{side}_heel"]] = jc.heel_from_ankle_toe(ankle, toe, heel_back_ratio, right)
             methods[f"{side}_heel"] = "foot model from the ankle and toe joints"
+    if cmu:
+        _cmu_sacrum(P, methods)
     if align_walking_to_x:
         P, _ = _align_walking(P)
     fps = 1.0 / bvh.frame_time
