@@ -179,6 +179,31 @@ def test_girth_scales_radii_not_lengths() -> None:
     np.testing.assert_allclose(tall.radii, a.radii * 1.9 / 1.7)
 
 
+def test_part_girths_scale_their_parts_only() -> None:
+    from tracker.body import CAPSULES, GIRTH_PARTS
+
+    a = BodyModel(1.7, girth=1.1)
+    b = BodyModel(1.7, girth=1.1, part_girths={"thighs": 1.5, "feet": 0.8})
+    segs = [c.segment for c in CAPSULES]
+    for i, seg in enumerate(segs):
+        f = 1.5 if seg in GIRTH_PARTS["thighs"] else 0.8 if seg in GIRTH_PARTS["feet"] else 1.0
+        np.testing.assert_allclose(b.radii[i], f * a.radii[i])
+    np.testing.assert_array_equal(a.forward(a.neutral_pose()), b.forward(b.neutral_pose()))
+    assert b.part_girths["thighs"] == 1.5 and b.part_girths["arms"] == 1.0
+    # with_shape keeps the height and the other factors
+    c = b.with_shape(part_girths={"arms": 1.2})
+    assert c.height_m == 1.7 and c.girth == 1.1
+    assert c.part_girths == {**b.part_girths, "arms": 1.2}
+    assert c.with_shape(girth=1.3).part_girths == c.part_girths
+    assert b.shape_key != a.shape_key
+    assert BodyModel(1.7, 1.1, {"thighs": 1.5, "feet": 0.8}).shape_key == b.shape_key
+    assert "thighs" in repr(b)
+    with pytest.raises(ValueError, match="unknown body part 'tail'"):
+        BodyModel(1.7, part_girths={"tail": 1.0})
+    with pytest.raises(ValueError, match="part_girths"):
+        BodyModel(1.7, part_girths={"arms": 4.0})
+
+
 @pytest.mark.parametrize(("h", "g"), [(0.2, 1.0), (3.0, 1.0), (float("nan"), 1.0), (1.7, 0.0)])
 def test_bad_body_parameters(h: float, g: float) -> None:
     with pytest.raises(ValueError, match="height_m|girth"):

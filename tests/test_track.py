@@ -199,6 +199,54 @@ def test_girth_estimated_over_the_first_frames(clip: dict) -> None:
     tracker.process(0, 0.0, frames[0])
     tracker.process(1, 1 / FPS, frames[1])
     assert tracker.body.girth == 1.0
+    # one value other than 1.0: the tracker's body has that girth from the start
+    fixed = TrackerConfig(ipf=IPFConfig(kept=9), init={"girths": (1.3,), "part_girths": (1.0,)})
+    tracker = Tracker(clip["cams"], fixed, rng=np.random.default_rng(0), backgrounds=clip["bgs"])
+    assert tracker.body.girth == 1.3
+    tracker.process(0, 0.0, frames[0])
+    assert tracker.body.girth == 1.3 and tracker.likelihood.body is tracker.body
+
+
+def test_part_girths_estimated_over_the_first_tracked_frames(clip: dict) -> None:
+    """A person with thick legs gets thicker thighs and shanks than a default person; the
+    factors are then fixed. One value: that factor on every part, nothing estimated."""
+    from tracker.body import BodyModel
+    from tracker.likelihood import SilhouetteLikelihood
+    from tracker.pipeline import Tracker
+    from tracker.synthetic import render_clip
+
+    factors = (0.8, 1.0, 1.25, 1.5, 1.8)
+    config = TrackerConfig(
+        ipf=IPFConfig(kept=9),
+        init={"girths": (1.0,), "part_girths": factors, "part_girth_frames": 3},
+    )
+    found = []
+    for legs in (1.0, 1.6):
+        shape = {"thighs": legs, "shanks": legs}
+        person = SilhouetteLikelihood(BodyModel(1.70, part_girths=shape), clip["cams"])
+        frames = list(render_clip(person, clip["poses"][:6], clip["bgs"], np.random.default_rng(1)))
+        tracker = Tracker(
+            clip["cams"], config, rng=np.random.default_rng(0), backgrounds=clip["bgs"]
+        )
+        assert set(tracker.body.part_girths.values()) == {1.0}
+        seen = []
+        for i in range(6):
+            res = tracker.process(i, i / FPS, frames[i])
+            assert res.has_pose
+            assert tracker.likelihood.body is tracker.body
+            seen.append(dict(tracker.body.part_girths))
+        assert seen[0] == dict.fromkeys(seen[0], 1.0)  # the initialised frame is not scored
+        assert seen[3] == seen[4] == seen[5]  # fixed after part_girth_frames tracked frames
+        assert all(v in factors for v in seen[-1].values())
+        found.append(seen[-1])
+    print(f"estimated part girths: {found[0]} (default legs), {found[1]} (legs 1.6)")
+    assert found[1]["thighs"] + found[1]["shanks"] > found[0]["thighs"] + found[0]["shanks"]
+    one = TrackerConfig(ipf=IPFConfig(kept=9), init={"girths": (1.0,), "part_girths": (1.2,)})
+    tracker = Tracker(clip["cams"], one, rng=np.random.default_rng(0), backgrounds=clip["bgs"])
+    assert set(tracker.body.part_girths.values()) == {1.2}
+    for i in range(3):
+        tracker.process(i, i / FPS, frames[i])
+    assert set(tracker.body.part_girths.values()) == {1.2}
 
 
 def _tracker_after_first_frame(clip: dict, **config):

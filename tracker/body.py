@@ -21,7 +21,9 @@ Anthropometry
 Volumes
     Each segment carries one or more tapered capsules (cone-spheres: the convex hull of two
     spheres of radii ``r_a`` and ``r_b``). The trunk is three overlapping capsules (left, right,
-    spine) so that its silhouette is wide. Radii scale with the height and with ``girth``.
+    spine) so that its silhouette is wide. Radii scale with the height, with ``girth`` and with
+    a factor per body part (``part_girths``: trunk, head, arms, thighs, shanks, feet), which the
+    tracker estimates from the silhouettes (clothes and builds differ most on the limbs).
 
 Kinematics
     ``BodyModel.forward`` is a numba kernel (``parallel=True``) over the batch of poses; the only
@@ -30,6 +32,7 @@ Kinematics
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Final
 
@@ -293,6 +296,23 @@ def _capsule_table() -> tuple[Capsule, ...]:
 
 
 CAPSULES: Final[tuple[Capsule, ...]] = _capsule_table()
+
+#: Body parts of ``BodyModel(part_girths=...)``: the segments whose capsules each factor scales.
+GIRTH_PARTS: Final[dict[str, tuple[str, ...]]] = {
+    "trunk": ("pelvis", "trunk", "left_clavicle", "right_clavicle"),
+    "head": ("head",),
+    "arms": (
+        "left_upper_arm",
+        "right_upper_arm",
+        "left_forearm",
+        "right_forearm",
+        "left_hand",
+        "right_hand",
+    ),
+    "thighs": ("left_thigh", "right_thigh"),
+    "shanks": ("left_shank", "right_shank"),
+    "feet": ("left_foot", "right_foot"),
+}
 CAPSULE_NAMES: Final[tuple[str, ...]] = tuple(c.name for c in CAPSULES)
 N_CAPSULES: Final[int] = len(CAPSULES)
 
@@ -530,6 +550,10 @@ class BodyModel:
         Standing height in metres (0.5 to 2.5).
     girth : float
         Factor on every volume radius (1.0 = average build; 1.2 for a heavier build).
+    part_girths : mapping of str to float, optional
+        Further factor on the radii of a body part (:data:`GIRTH_PARTS`: ``"trunk"``,
+        ``"head"``, ``"arms"``, ``"thighs"``, ``"shanks"``, ``"feet"``), 0.5 to 3.0; parts not
+        named keep 1.0.
 
     Attributes
     ----------
@@ -541,13 +565,28 @@ class BodyModel:
         ``(C, 2)`` capsule radii in metres (end a, end b), girth applied.
     """
 
-    def __init__(self, height_m: float = 1.70, girth: float = 1.0) -> None:
+    def __init__(
+        self,
+        height_m: float = 1.70,
+        girth: float = 1.0,
+        part_girths: Mapping[str, float] | None = None,
+    ) -> None:
         if not np.isfinite(height_m) or not 0.5 <= height_m <= 2.5:
             raise ValueError(f"height_m must be between 0.5 and 2.5 metres, not {height_m}")
         if not np.isfinite(girth) or not 0.5 <= girth <= 2.0:
             raise ValueError(f"girth must be between 0.5 and 2.0, not {girth}")
+        parts = dict(part_girths or {})
+        for name, f in parts.items():
+            if name not in GIRTH_PARTS:
+                raise ValueError(
+                    f"unknown body part {name!r} in part_girths (one of {', '.join(GIRTH_PARTS)})"
+                )
+            if not np.isfinite(f) or not 0.5 <= f <= 3.0:
+                raise ValueError(f"part_girths[{name!r}] must be between 0.5 and 3.0, not {f}")
         self.height_m = float(height_m)
         self.girth = float(girth)
+        #: Factor per body part (every part of GIRTH_PARTS, 1.0 when not given).
+        self.part_girths: dict[str, float] = {n: float(parts.get(n, 1.0)) for n in GIRTH_PARTS}
         H = self.height_m
         kp = _KEYPOINT_TABLE
 
@@ -591,7 +630,9 @@ class BodyModel:
         self._pt_local = np.asarray(local, dtype=np.float64) * H
         self.cap_a = np.asarray(cap_a, dtype=np.int64)
         self.cap_b = np.asarray(cap_b, dtype=np.int64)
-        self.radii = np.array([[c.ra, c.rb] for c in CAPSULES]) * H * self.girth
+        part_of = {seg: n for n, segs in GIRTH_PARTS.items() for seg in segs}
+        factor = np.array([self.part_girths[part_of[c.segment]] for c in CAPSULES])
+        self.radii = np.array([[c.ra, c.rb] for c in CAPSULES]) * H * self.girth * factor[:, None]
         self.capsule_names = CAPSULE_NAMES
         seg_of = [c.segment for c in CAPSULES]
         self.left_leg_capsules = np.array(
@@ -712,5 +753,24 @@ class BodyModel:
         pose[DOF["root_yaw"]] = yaw
         return pose
 
+    def with_shape(
+        self, girth: float | None = None, part_girths: Mapping[str, float] | None = None
+    ) -> BodyModel:
+        """The same person (height) with another girth and/or part factors (others kept)."""
+        parts = dict(self.part_girths)
+        parts.update(part_girths or {})
+        return type(self)(
+            height_m=self.height_m,
+            girth=self.girth if girth is None else girth,
+            part_girths=parts,
+        )
+
+    @property
+    def shape_key(self) -> tuple[float, ...]:
+        """Girth then the part factors (GIRTH_PARTS order): equal keys, equal volumes."""
+        return (self.girth, *self.part_girths.values())
+
     def __repr__(self) -> str:
-        return f"BodyModel(height_m={self.height_m}, girth={self.girth})"
+        parts = {n: f for n, f in self.part_girths.items() if f != 1.0}
+        extra = f", part_girths={parts}" if parts else ""
+        return f"BodyModel(height_m={self.height_m}, girth={self.girth}{extra})"

@@ -321,6 +321,33 @@ class InitConfig(_Model):
             "(after the first initialisation's choice); then the girth is fixed",
         ),
     ] = 5
+    part_girths: Annotated[
+        tuple[float, ...],
+        Field(
+            min_length=1,
+            max_length=12,
+            description="Factors tried on each body part's volumes (tracker.body.GIRTH_PARTS: "
+            "trunk, head, arms, thighs, shanks, feet) over the first part_girth_frames frames, "
+            "on top of the girth: each part takes the factor whose best particle weighs most, "
+            "summed over those frames. One value: that factor on every part, nothing estimated",
+        ),
+    ] = (0.65, 0.8, 1.0, 1.25, 1.5, 1.8, 2.2)
+    part_girth_frames: Annotated[
+        int,
+        Field(
+            ge=1,
+            le=1000,
+            description="Frames over which the part factors are scored (from the first tracked "
+            "frame); then they are fixed",
+        ),
+    ] = 10
+
+    @field_validator("part_girths")
+    @classmethod
+    def _part_girths(cls, v: tuple[float, ...]) -> tuple[float, ...]:
+        if any(not 0.5 <= f <= 3.0 for f in v):
+            raise ValueError("part_girths must be within 0.5..3.0")
+        return v
 
     @field_validator("girths")
     @classmethod

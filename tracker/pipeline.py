@@ -42,6 +42,7 @@ import cv2
 import numpy as np
 
 from gaitwatch.conventions import L_ANKLE, L_HEEL, L_TOE, R_ANKLE, R_HEEL, R_TOE, SACRUM
+from tracker.body import GIRTH_PARTS
 from tracker.config import TrackerConfig
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, wrap_angle
 from tracker.filters import Filter, make_filter, select_distinct
@@ -251,12 +252,20 @@ class Tracker:
         #: Girth estimated at the first initialisation when the tracker builds the body model
         #: and the likelihood itself (config.init.girths).
         self._estimate_girth = body is None and likelihood is None
-        self._girth_bodies: dict[float, object] = {}
+        self._girth_bodies: dict[tuple[float, ...], object] = {}
         self._girth_scores: dict[float, float] = {}
+        #: Part factors (config.init.part_girths), estimated over the first tracked frames.
+        self._estimate_parts = self._estimate_girth and len(c.init.part_girths) > 1
+        self._part_scores: dict[tuple[str, float], float] = {}
         if body is None:
             from tracker.body import BodyModel
 
-            body = BodyModel(height_m=height_m)
+            girths, parts = c.init.girths, c.init.part_girths
+            body = BodyModel(
+                height_m=height_m,
+                girth=girths[0] if len(girths) == 1 else 1.0,
+                part_girths=dict.fromkeys(GIRTH_PARTS, parts[0]) if len(parts) == 1 else None,
+            )
         self.body = body
         if likelihood is None:
             from tracker.likelihood import SilhouetteLikelihood
@@ -314,6 +323,7 @@ class Tracker:
         #: The opposite heading hypothesis after an initialisation (init.both_headings).
         self._alt: _Hypothesis | None = None
         self._girth_frames_left = c.init.girth_frames
+        self._part_frames_left = c.init.part_girth_frames
         self._masks: list[np.ndarray] = []
         self._tracked_frames = 0
         #: Weights of the estimates at the last re-detection points; skipped frames in a row.
@@ -326,7 +336,7 @@ class Tracker:
             update={"init": c.init.model_copy(update={"refine_best": c.redetect.refine_best})}
         )
         if self._estimate_girth:
-            self._girth_bodies[self.body.girth] = self.body
+            self._girth_bodies[self.body.shape_key] = self.body
 
     # -- public -----------------------------------------------------------------------------
     @property
@@ -420,6 +430,8 @@ class Tracker:
                     notes.append(note)
         if self._estimate_girth and len(self.config.init.girths) > 1:
             self._update_girth(pose)
+        if self._estimate_parts and status == "tracked":
+            self._update_part_girths(pose)
         pose, weight, joints = self._floor_constraint(pose, weight)
         if self._alt is not None:
             if status == "tracked":
@@ -466,10 +478,41 @@ class Tracker:
         self.body = body
         self.likelihood.body = body
 
-    def _girth_body(self, girth: float):
-        if girth not in self._girth_bodies:
-            self._girth_bodies[girth] = type(self.body)(height_m=self.body.height_m, girth=girth)
-        return self._girth_bodies[girth]
+    def _girth_body(
+        self, girth: float | None = None, parts: dict[str, float] | None = None, base=None
+    ):
+        """``base`` (default: the current body) with another girth and/or part factors (cached)."""
+        body = (base or self.body).with_shape(girth, parts)
+        return self._girth_bodies.setdefault(body.shape_key, body)
+
+    def _update_part_girths(self, pose: np.ndarray) -> None:
+        """Score every part factor on this frame's particles; each part keeps its best so far.
+
+        Over the first ``init.part_girth_frames`` tracked frames, the estimate and the heaviest
+        distinct particles are weighed with each body part's volumes scaled by each factor of
+        ``init.part_girths`` (the other parts as they are); a part's score for a factor is the
+        sum over frames of the best weight. After each frame every part takes its best-scoring
+        factor; after the last the factors are fixed.
+        """
+        factors = self.config.init.part_girths
+        f = self.filter
+        idx = select_distinct(f.particles, f.weights, 9)
+        cand = np.concatenate([pose[None], f.particles[idx]])
+        current = self.body
+        best: dict[str, float] = {}
+        with _single_thread():
+            for part in GIRTH_PARTS:
+                for g in factors:
+                    self._set_body(self._girth_body(parts={part: g}, base=current))
+                    w = np.asarray(self._lik.weights(cand), dtype=np.float64)
+                    key = (part, g)
+                    self._part_scores[key] = self._part_scores.get(key, 0.0) + float(w.max())
+                best[part] = max(factors, key=lambda g, p=part: self._part_scores[(p, g)])
+        self._set_body(self._girth_body(parts=best, base=current))
+        self._part_frames_left -= 1
+        if self._part_frames_left <= 0:
+            self._estimate_parts = False
+            log.info("body part girths %s fit the silhouettes best", best)
 
     def _update_girth(self, pose: np.ndarray) -> None:
         """Score every girth on this frame's refined particles; keep the best so far.
