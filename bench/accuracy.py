@@ -481,7 +481,10 @@ def track(
 
     cfg = variant_config(filt, settings)
     tr = Tracker(cams, cfg, rng=np.random.default_rng(seed), height_m=stature, backgrounds=bgs)
+    from tracker.smoothing import RESTART_STATUSES, smooth_keypoints
+
     out_f, out_t, joints, times_ms, ev_tr, ev_init, statuses = [], [], [], [], [], [], []
+    restarts: list[bool] = []
     seg_iou, est_iou, seen, weights, fit_w, est_w = [], [], [], [], [], []
     fits = fits or {}
     segment = tr.segment
@@ -519,9 +522,14 @@ def track(
             out_f.append(k)
             out_t.append(k / fps)
             joints.append(res.joints)
+            restarts.append(res.status in RESTART_STATUSES or len(out_f) < 2 or out_f[-2] != k - 1)
         bar.update(1)
     if joints:
-        est = Trajectory(positions=np.stack(joints), times=np.array(out_t), frames=out_f, fps=fps)
+        # the key points as `gaitwatch track` writes them (tracker.smoothing; the settings'
+        # [smoothing] section, on by default)
+        raw = np.stack(joints)
+        smoothed = smooth_keypoints(np.array(out_t), raw, cfg.smoothing, fps, np.array(restarts))
+        est = Trajectory(positions=smoothed, times=np.array(out_t), frames=out_f, fps=fps)
     else:
         est = Trajectory(positions=np.zeros((0, 19, 3)), times=np.zeros(0), frames=[], fps=fps)
     info = {
@@ -832,6 +840,10 @@ def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float
     tgt, _ = targets(runs)
     load = os.getloadavg() if hasattr(os, "getloadavg") else (math.nan,) * 3
     cmd = "python3 bench/accuracy.py" + ("" if not argv else " " + shlex.join(argv))
+    from tracker.config import TrackerConfig, load_tracker_config
+
+    sm = (load_tracker_config(args.config) if args.config else TrackerConfig()).smoothing
+    smoothing_text = f"{sm.window_s} s window, order {sm.order}" if sm.enabled else "off"
     settings_text = (
         f"tracker settings `{args.config}` over the defaults ("
         if args.config
@@ -859,6 +871,8 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
   "body"){"; every person dressed in one plain colour (--one-colour)" if args.one_colour else ""};
   a 90 degree turn in 16_18; occluders (`@table`, `@sofa`) stand between the first camera and
   the walk.
+- Scored: the key points as `gaitwatch track` writes them, smoothed over each continuous track
+  (`tracker.smoothing`, the settings' `[smoothing]`: {smoothing_text}).
 - Metrics (`gaitwatch.evaluation`): mean per-joint position error over the 19 key points and
   over the lower limbs (hips, knees, ankles, heels, toes), per group; hip and knee flexion RMSE
   (gait.kinematics, both sides); L/R swap = share of tracked frames where exchanging the

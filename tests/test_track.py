@@ -420,8 +420,28 @@ def test_track_cli_round_trip_and_seed(clip: dict, tmp_path: Path, capsys) -> No
     assert np.array_equal(a.trajectory.positions, b.trajectory.positions)
     assert np.array_equal(a.weights, b.weights)
     assert not np.array_equal(a.dofs, c.dofs)
-    # the stored joints are the body model's forward kinematics of the stored DOFs
-    assert np.allclose(clip["body"].forward(a.dofs), a.trajectory.positions, atol=1e-9)
+    # the stored joints are smoothed over each track (tracker.smoothing): near the forward
+    # kinematics of each frame's own DOFs, not equal to it
+    fk = np.asarray(clip["body"].forward(a.dofs))
+    gap = np.linalg.norm(fk - a.trajectory.positions, axis=-1)
+    assert 0 < gap.max() < 0.1
+    assert a.metadata["settings"]["tracker"]["smoothing"]["enabled"] is True
+    # --no-smoothing: each frame's own estimate, the forward kinematics of its DOFs
+    raw_out = tmp_path / "raw.mcap"
+    rc = main(
+        _args(clip, raw_out, "--seed", "5", "--max-frames", "6", "--particles", "729")
+        + ["--no-smoothing"]
+    )
+    assert rc == 0
+    raw = read_poselog(raw_out)
+    assert raw.metadata["settings"]["tracker"]["smoothing"]["enabled"] is False
+    assert np.array_equal(raw.dofs, a.dofs)  # the same tracking
+    assert np.allclose(clip["body"].forward(raw.dofs), raw.trajectory.positions, atol=1e-9)
+    from tracker.config import SmoothingConfig
+    from tracker.smoothing import smooth_keypoints
+
+    again = smooth_keypoints(raw.trajectory.times, raw.trajectory.positions, SmoothingConfig(), FPS)
+    np.testing.assert_allclose(again, a.trajectory.positions, atol=1e-9)
     # metadata: cameras, height, filter and settings come back
     assert [cam.name for cam in a.cameras] == [cam.name for cam in clip["cams"]]
     assert np.allclose(a.cameras[1].K, clip["cams"][1].K)

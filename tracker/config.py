@@ -749,6 +749,28 @@ class AppearanceConfig(_Model):
     ] = 4
 
 
+class SmoothingConfig(_Model):
+    """Fixed-lag smoothing of the key points written by ``gaitwatch track``
+    (:mod:`tracker.smoothing`; ``Tracker.process`` itself returns each frame's own estimate)."""
+
+    enabled: Annotated[
+        bool, Field(description="Smooth the key points of each continuous track")
+    ] = True
+    window_s: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=5,
+            description="Window of the centred local polynomial fit, seconds (odd number of "
+            "frames at the video's rate); the output lags the input by half of it",
+        ),
+    ] = 0.45
+    order: Annotated[int, Field(ge=0, le=4, description="Polynomial order")] = 2
+    max_gap_s: Annotated[
+        float, Field(gt=0, le=10, description="A longer step between two frames ends a segment")
+    ] = 0.5
+
+
 class TrackerConfig(_Model):
     """Everything the tracking pipeline needs besides cameras, footage and a seed."""
 
@@ -766,6 +788,7 @@ class TrackerConfig(_Model):
     ] = None
     origin: OriginSearchConfig = Field(default_factory=OriginSearchConfig)
     init: InitConfig = Field(default_factory=InitConfig)
+    smoothing: SmoothingConfig = Field(default_factory=SmoothingConfig)
     redetect: RedetectConfig = Field(default_factory=RedetectConfig)
     heading_check: HeadingCheckConfig = Field(default_factory=HeadingCheckConfig)
     leg_swap: LegSwapConfig = Field(default_factory=LegSwapConfig)

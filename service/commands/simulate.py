@@ -150,6 +150,7 @@ def tracker_callable(seed: int = 0):
     true stature."""
     from gaitwatch.trajectory import Trajectory
     from tracker.pipeline import Tracker
+    from tracker.smoothing import RESTART_STATUSES, smooth_keypoints
 
     def track(clip) -> Trajectory:
         tracker = Tracker(
@@ -158,7 +159,7 @@ def tracker_callable(seed: int = 0):
             height_m=float(clip.scene.body.stature_m),
             backgrounds=[np.ascontiguousarray(b[..., ::-1]) for b in clip.backgrounds],
         )
-        frames, times, joints = [], [], []
+        frames, times, joints, restarts = [], [], [], []
         for k in range(len(clip.truth)):
             res = tracker.process(
                 k, k / clip.fps, [np.ascontiguousarray(f[k][..., ::-1]) for f in clip.frames]
@@ -167,9 +168,15 @@ def tracker_callable(seed: int = 0):
                 frames.append(k)
                 times.append(k / clip.fps)
                 joints.append(res.joints)
+                gap = len(frames) < 2 or frames[-2] != k - 1
+                restarts.append(res.status in RESTART_STATUSES or gap)
         if not frames:
             return Trajectory(positions=np.zeros((0, 19, 3)), times=np.zeros(0), frames=[])
-        return Trajectory(positions=np.stack(joints), times=np.array(times), frames=frames)
+        # as `gaitwatch track` writes them
+        smoothed = smooth_keypoints(
+            np.array(times), np.stack(joints), tracker.config.smoothing, clip.fps, restarts
+        )
+        return Trajectory(positions=smoothed, times=np.array(times), frames=frames)
 
     track.__name__ = f"tracker (seed {seed})"
     return track

@@ -7,10 +7,15 @@
                     [--seed N] --out POSES.mcap
                     [--config TRACKER.toml|yaml] [--particles N] [--max-frames N]
                     [--segmentation static|mog2|knn] [--threads N] [--allow-length-mismatch]
+                    [--no-smoothing]
 
 One VIDEO (a file OpenCV reads, or a folder of numbered PNG/JPEG frames) per ``--camera``, in the
 same order. Frames are processed one at a time (memory does not grow with the footage) and each is
-written to the pose log at once: a pose, or a "no pose" status with its reason. The log is
+written to the pose log as soon as it is final: a pose, or a "no pose" status with its reason.
+The key points of each continuous track are smoothed over 0.45 s (:mod:`tracker.smoothing`, a
+centred quadratic fit; ``--no-smoothing`` or ``[smoothing]`` in ``--config`` to change), so a
+frame is written about a quarter of a second of footage after it was read; the pose vector and
+weight are each frame's own. The log is
 finalised even when tracking stops on an error (a corrupt frame, videos of different lengths), so
 the poses written so far stay readable; the error is then reported on one line and the exit code
 is non-zero. Every random draw comes from one generator seeded by ``--seed``: the same seed gives
@@ -83,6 +88,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="videos of different lengths: stop at the shortest with a warning instead of an error",
     )
+    p.add_argument(
+        "--no-smoothing",
+        action="store_true",
+        help="write each frame's own estimate (default: key points smoothed over 0.45 s, "
+        "settings [smoothing] of --config)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -95,6 +106,8 @@ def build_config(args: argparse.Namespace) -> TrackerConfig:
         update["filter"] = args.filter
     if args.segmentation:
         update["segmentation"] = config.segmentation.model_copy(update={"mode": args.segmentation})
+    if getattr(args, "no_smoothing", False):
+        update["smoothing"] = config.smoothing.model_copy(update={"enabled": False})
     if args.particles is not None:
         if args.particles < 1:
             raise TrackArgumentError(f"--particles must be >= 1, not {args.particles}")
@@ -117,6 +130,7 @@ def run(args: argparse.Namespace) -> int:
     from service.video import open_videos, read_image
     from tracker.camera import check_image_size, load_cameras
     from tracker.pipeline import Tracker
+    from tracker.smoothing import RESTART_STATUSES, KeypointSmoother
 
     if not (0.5 <= args.height <= 2.5):
         raise TrackArgumentError(f"--height must be between 0.5 and 2.5 metres, not {args.height}")
@@ -173,6 +187,7 @@ def run(args: argparse.Namespace) -> int:
         total = min(total, args.max_frames) if total else args.max_frames
     out = Path(args.out)
     n_pose = n_none = 0
+    smoother = KeypointSmoother.from_config(config.smoothing, cameras[0].fps)
     t0 = time.perf_counter()
     with (
         videos,
@@ -193,20 +208,37 @@ def run(args: argparse.Namespace) -> int:
             dynamic_ncols=True,
         ) as bar,
     ):
-        for index, time_s, frames in itertools.islice(videos, args.max_frames):
-            res = tracker.process(index, time_s, frames)
-            if res.has_pose:
-                writer.write_frame(
-                    index, time_s, res.joints, res.pose, res.weight, tracker.filter_name
+
+        def write(done: list) -> None:
+            nonlocal n_pose, n_none
+            for out in done:
+                index, time_s, res = out.item
+                if res.has_pose:
+                    writer.write_frame(
+                        index, time_s, out.joints, res.pose, res.weight, tracker.filter_name
+                    )
+                    n_pose += 1
+                else:
+                    writer.write_no_pose(index, time_s, res.reason)
+                    n_none += 1
+                for note in res.notes:
+                    writer.write_note(index, time_s, note)
+
+        try:
+            for index, time_s, frames in itertools.islice(videos, args.max_frames):
+                res = tracker.process(index, time_s, frames)
+                write(
+                    smoother.push(
+                        time_s,
+                        res.joints if res.has_pose else None,
+                        (index, time_s, res),
+                        restart=res.status in RESTART_STATUSES,
+                    )
                 )
-                n_pose += 1
-            else:
-                writer.write_no_pose(index, time_s, res.reason)
-                n_none += 1
-            for note in res.notes:
-                writer.write_note(index, time_s, note)
-            bar.update(1)
-            bar.set_postfix(weight=f"{res.weight:.2f}", refresh=False)
+                bar.update(1)
+                bar.set_postfix(weight=f"{res.weight:.2f}", refresh=False)
+        finally:  # the frames still in the smoother's window are written, even after an error
+            write(smoother.flush())
     elapsed = time.perf_counter() - t0
     n = n_pose + n_none
     print(

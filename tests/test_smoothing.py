@@ -1,0 +1,128 @@
+"""Fixed-lag key-point smoothing (tracker.smoothing)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal import savgol_filter
+
+from tracker.config import SmoothingConfig
+from tracker.smoothing import KeypointSmoother, local_fit, smooth_keypoints, window_frames
+
+FPS = 20.0
+
+
+def _stream(sm: KeypointSmoother, times, joints, restarts=None):
+    """Push every frame; returns [(item, joints or None)] in output order and the lags."""
+    out, lags = [], []
+    for k, (t, j) in enumerate(zip(times, joints, strict=True)):
+        r = bool(restarts[k]) if restarts is not None else False
+        done = sm.push(t, j, item=k, restart=r)
+        lags += [k - f.item for f in done]
+        out += [(f.item, f.joints) for f in done]
+    out += [(f.item, f.joints) for f in sm.flush()]
+    return out, lags
+
+
+def test_window_frames() -> None:
+    assert window_frames(0.45, 20.0) == 9
+    assert window_frames(0.4, 20.0) == 9  # 8 -> the next odd number
+    assert window_frames(0.45, 30.0) == 15  # 13.5 rounds to 14 -> 15
+    assert window_frames(0.01, 20.0) == 1
+    with pytest.raises(ValueError, match="fps"):
+        window_frames(0.45, 0.0)
+
+
+def test_interior_is_savitzky_golay_and_lag_is_half_a_window() -> None:
+    rng = np.random.default_rng(0)
+    T = 30
+    times = np.arange(T) / FPS
+    joints = rng.normal(size=(T, 19, 3))
+    sm = KeypointSmoother(9, 2)
+    out, lags = _stream(sm, times, joints)
+    assert [i for i, _ in out] == list(range(T))  # every frame once, in order
+    assert set(lags) == {4}  # each frame is final 4 frames (half a window) after it came in
+    got = np.stack([j for _, j in out])
+    ref = savgol_filter(joints, 9, 2, axis=0)
+    np.testing.assert_allclose(got[4:-4], ref[4:-4], atol=1e-12)
+
+
+def test_motion_of_low_order_passes_unchanged_and_noise_is_reduced() -> None:
+    rng = np.random.default_rng(1)
+    T = 40
+    t = np.arange(T) / FPS
+    # a walk: constant speed forward plus a quadratic rise; exact for an order-2 fit
+    truth = np.zeros((T, 19, 3))
+    truth[..., 0] = 1.2 * t[:, None]
+    truth[..., 2] = 0.9 + 0.1 * t[:, None] ** 2
+    cfg = SmoothingConfig(window_s=0.45, order=2)
+    np.testing.assert_allclose(smooth_keypoints(t, truth, cfg, FPS), truth, atol=1e-9)
+    noisy = truth + rng.normal(scale=0.03, size=truth.shape)
+    smoothed = smooth_keypoints(t, noisy, cfg, FPS)
+    err_raw = np.linalg.norm(noisy - truth, axis=-1).mean()
+    err_smooth = np.linalg.norm(smoothed - truth, axis=-1).mean()
+    assert err_smooth < 0.7 * err_raw, (err_raw, err_smooth)
+
+
+def test_segments_are_not_mixed() -> None:
+    """A frame without a pose, a restart or a gap in time ends a segment: two tracks at
+    different places stay where they are."""
+    sm = KeypointSmoother(9, 2, max_gap_s=0.5)
+    a, b = np.zeros((19, 3)), np.ones((19, 3))
+    times = [0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35]
+    joints = [a, a, a, None, b, b, b, b]
+    out, _ = _stream(sm, times, joints)
+    assert [i for i, _ in out] == list(range(8))
+    assert out[3][1] is None
+    for _, j in out[:3]:
+        np.testing.assert_allclose(j, a, atol=1e-12)
+    for _, j in out[4:]:
+        np.testing.assert_allclose(j, b, atol=1e-12)
+    # a restart (re-initialised track) without a missing frame
+    sm = KeypointSmoother(9, 2)
+    out, _ = _stream(sm, times[:6], [a, a, a, b, b, b], restarts=[0, 0, 0, 1, 0, 0])
+    assert np.allclose(out[2][1], a) and np.allclose(out[3][1], b)
+    # a gap in time longer than max_gap_s
+    sm = KeypointSmoother(9, 2, max_gap_s=0.5)
+    out, _ = _stream(sm, [0.0, 0.05, 0.1, 2.0, 2.05], [a, a, a, b, b])
+    assert np.allclose(out[2][1], a) and np.allclose(out[3][1], b)
+
+
+def test_single_frame_segments_and_window_one_pass_through() -> None:
+    rng = np.random.default_rng(2)
+    j = rng.normal(size=(19, 3))
+    sm = KeypointSmoother(9, 2)
+    out, _ = _stream(sm, [0.0, 0.05, 0.1], [j, None, j + 1])
+    np.testing.assert_array_equal(out[0][1], j)
+    np.testing.assert_array_equal(out[2][1], j + 1)
+    joints = rng.normal(size=(5, 19, 3))
+    sm = KeypointSmoother(1, 2)
+    out, lags = _stream(sm, np.arange(5) / FPS, joints)
+    assert set(lags) == {0}
+    np.testing.assert_array_equal(np.stack([o[1] for o in out]), joints)
+    off = smooth_keypoints(np.arange(5) / FPS, joints, SmoothingConfig(enabled=False), FPS)
+    np.testing.assert_array_equal(off, joints)
+
+
+def test_flush_returns_everything_pending_and_items_untouched() -> None:
+    sm = KeypointSmoother(9, 2)
+    payloads = [{"frame": k} for k in range(3)]
+    done = []
+    for k, p in enumerate(payloads):
+        done += sm.push(k / FPS, np.full((19, 3), float(k)), item=p)
+    assert done == []  # nothing final yet: the window is not full
+    rest = sm.flush()
+    assert [f.item for f in rest] == payloads and rest[0].item is payloads[0]
+    assert sm.flush() == []
+
+
+def test_local_fit_lowers_the_order_when_few_points() -> None:
+    v = np.array([[1.0], [3.0]])
+    assert local_fit(np.array([0.0, 1.0]), v, 0.0, 2)[0] == pytest.approx(1.0)  # a line
+    assert local_fit(np.array([0.0]), v[:1], 0.0, 2)[0] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(("window", "order"), [(0, 2), (8, 2), (9, 5), (9, -1)])
+def test_bad_parameters(window: int, order: int) -> None:
+    with pytest.raises(ValueError, match="window|order"):
+        KeypointSmoother(window, order)
