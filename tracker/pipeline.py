@@ -512,6 +512,8 @@ class Tracker:
         self._part_frames_left -= 1
         if self._part_frames_left <= 0:
             self._estimate_parts = False
+            if not self._estimate_girth:  # both fixed: keep only the body in use
+                self._girth_bodies = {self.body.shape_key: self.body}
             log.info("body part girths %s fit the silhouettes best", best)
 
     def _update_girth(self, pose: np.ndarray) -> None:
