@@ -522,13 +522,15 @@ def track(
             out_f.append(k)
             out_t.append(k / fps)
             joints.append(res.joints)
-            restarts.append(res.status in RESTART_STATUSES or len(out_f) < 2 or out_f[-2] != k - 1)
+            restarts.append(res.status in RESTART_STATUSES)
         bar.update(1)
     if joints:
         # the key points as `gaitwatch track` writes them (tracker.smoothing; the settings'
         # [smoothing] section, on by default)
         raw = np.stack(joints)
-        smoothed = smooth_keypoints(np.array(out_t), raw, cfg.smoothing, fps, np.array(restarts))
+        smoothed = smooth_keypoints(
+            np.array(out_t), raw, cfg.smoothing, fps, np.array(restarts), frames=np.array(out_f)
+        )
         est = Trajectory(positions=smoothed, times=np.array(out_t), frames=out_f, fps=fps)
     else:
         est = Trajectory(positions=np.zeros((0, 19, 3)), times=np.zeros(0), frames=[], fps=fps)

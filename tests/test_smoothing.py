@@ -88,6 +88,19 @@ def test_segments_are_not_mixed() -> None:
     assert np.allclose(out[2][1], a) and np.allclose(out[3][1], b)
 
 
+def test_whole_footage_form_breaks_at_missing_frames() -> None:
+    """``frames``: a frame number that does not follow the previous one starts a segment, as a
+    frame without a pose does in the stream."""
+    a, b = np.zeros((19, 3)), np.ones((19, 3))
+    joints = np.stack([a, a, a, b, b, b])
+    times = np.array([0.0, 0.05, 0.1, 0.2, 0.25, 0.3])  # frame 3 (0.15 s) had no pose
+    cfg = SmoothingConfig()
+    mixed = smooth_keypoints(times, joints, cfg, FPS)
+    assert not np.allclose(mixed[2], a)  # one segment: the two places blur together
+    split = smooth_keypoints(times, joints, cfg, FPS, frames=np.array([0, 1, 2, 4, 5, 6]))
+    np.testing.assert_allclose(split, joints, atol=1e-12)
+
+
 def test_single_frame_segments_and_window_one_pass_through() -> None:
     rng = np.random.default_rng(2)
     j = rng.normal(size=(19, 3))

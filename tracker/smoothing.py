@@ -180,12 +180,18 @@ def smooth_keypoints(
     config: SmoothingConfig,
     fps: float,
     restarts: np.ndarray | None = None,
+    frames: np.ndarray | None = None,
 ) -> np.ndarray:
     """The whole-footage form: ``joints`` (T, K, 3) of frames with a pose at ``times`` (T,),
-    ``restarts`` (T,) True where a track starts; returns the smoothed (T, K, 3)."""
+    ``restarts`` (T,) True where a track starts; ``frames`` (T,) their frame numbers, a frame
+    that does not follow the previous one (a frame without a pose between them) also starts a
+    segment. Returns the smoothed (T, K, 3)."""
     sm = KeypointSmoother.from_config(config, fps)
     out: list[np.ndarray] = []
     flags = np.zeros(len(times), dtype=bool) if restarts is None else np.asarray(restarts, bool)
+    if frames is not None:
+        f = np.asarray(frames)
+        flags = flags | np.concatenate([[True], np.diff(f) != 1])[: len(flags)]
     for t, j, r in zip(times, joints, flags, strict=True):
         out += [f.joints for f in sm.push(float(t), j, restart=bool(r))]
     out += [f.joints for f in sm.flush()]

@@ -168,13 +168,17 @@ def tracker_callable(seed: int = 0):
                 frames.append(k)
                 times.append(k / clip.fps)
                 joints.append(res.joints)
-                gap = len(frames) < 2 or frames[-2] != k - 1
-                restarts.append(res.status in RESTART_STATUSES or gap)
+                restarts.append(res.status in RESTART_STATUSES)
         if not frames:
             return Trajectory(positions=np.zeros((0, 19, 3)), times=np.zeros(0), frames=[])
         # as `gaitwatch track` writes them
         smoothed = smooth_keypoints(
-            np.array(times), np.stack(joints), tracker.config.smoothing, clip.fps, restarts
+            np.array(times),
+            np.stack(joints),
+            tracker.config.smoothing,
+            clip.fps,
+            np.array(restarts),
+            frames=np.array(frames),
         )
         return Trajectory(positions=smoothed, times=np.array(times), frames=frames)
 
