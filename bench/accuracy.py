@@ -485,6 +485,7 @@ def track(
 
     out_f, out_t, joints, times_ms, ev_tr, ev_init, statuses = [], [], [], [], [], [], []
     restarts: list[bool] = []
+    final: dict[int, object] = {}
     seg_iou, est_iou, seen, weights, fit_w, est_w = [], [], [], [], [], []
     fits = fits or {}
     segment = tr.segment
@@ -519,11 +520,15 @@ def track(
             if k in fits:
                 fit_w.append(float(tr.likelihood.weights(fits[k][None])[0]))
                 est_w.append(float(tr.likelihood.weights(res.pose[None])[0]))
-            out_f.append(k)
-            out_t.append(k / fps)
-            joints.append(res.joints)
-            restarts.append(res.status in RESTART_STATUSES)
+            final[k] = res
+        for rev in res.revisions:  # the backward pass over a track's first frames
+            final[rev.frame_index] = rev
         bar.update(1)
+    for k in sorted(final):  # each frame's final result, as `gaitwatch track` writes it
+        out_f.append(k)
+        out_t.append(k / fps)
+        joints.append(final[k].joints)
+        restarts.append(final[k].status in RESTART_STATUSES)
     if joints:
         # the key points as `gaitwatch track` writes them (tracker.smoothing; the settings'
         # [smoothing] section, on by default)

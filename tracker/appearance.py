@@ -337,6 +337,23 @@ class ColourCue:
         self.has_frame = True
         self._maps = None
 
+    def frame_state(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The current frame at the working size (a copy; None without one), for
+        :meth:`restore_frame`: a few kB where the raw frames take megabytes."""
+        if not self.has_frame:
+            return None
+        return self.img.copy(), self.mask.copy()
+
+    def restore_frame(self, state: tuple[np.ndarray, np.ndarray] | None) -> None:
+        """Make a frame kept by :meth:`frame_state` the current one (None: no frame)."""
+        if state is None:
+            self.clear_frame()
+            return
+        self.img[...] = state[0]
+        self.mask[...] = state[1]
+        self.has_frame = True
+        self._maps = None
+
     def clear_frame(self) -> None:
         """No frame for this time step: the cue does not score until the next one is set."""
         self.has_frame = False

@@ -771,6 +771,47 @@ class SmoothingConfig(_Model):
     ] = 0.5
 
 
+class ReviseConfig(_Model):
+    """Backward pass over the first frames of a track (``Tracker`` attaches the result to a
+    later frame's :class:`tracker.pipeline.FrameResult` as ``revisions``).
+
+    A track starts from the initial search's coarse grid and takes several frames to settle;
+    a heading flip (``heading_check``) re-initialises it again. Once the track has run
+    ``settle_s`` seconds since its last (re-)initialisation, a copy of the tracker in that
+    settled state tracks the frames since the track began backwards in time (the filter's
+    motion turned around, no heading check: the person walks backwards in reversed time), and
+    its estimates replace those of the forward pass. Consumers that hold the results of the
+    frames still open to revision (:class:`tracker.revision.ResultQueue`) write the revised
+    ones; the output then lags the input by up to ``max_s``.
+    """
+
+    enabled: Annotated[bool, Field(description="Run the backward pass")] = True
+    settle_s: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=10,
+            description="Seconds of tracking since the last (re-)initialisation after which the "
+            "track counts as settled and the backward pass runs",
+        ),
+    ] = 0.6
+    max_s: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=60,
+            description="At most this many seconds of frames are kept for the pass (the oldest "
+            "are then final as tracked); bounds the output delay and the memory",
+        ),
+    ] = 4.0
+
+    @model_validator(mode="after")
+    def _window(self) -> ReviseConfig:
+        if self.max_s < self.settle_s:
+            raise ValueError("max_s must be at least settle_s")
+        return self
+
+
 class TrackerConfig(_Model):
     """Everything the tracking pipeline needs besides cameras, footage and a seed."""
 
@@ -789,6 +830,7 @@ class TrackerConfig(_Model):
     origin: OriginSearchConfig = Field(default_factory=OriginSearchConfig)
     init: InitConfig = Field(default_factory=InitConfig)
     smoothing: SmoothingConfig = Field(default_factory=SmoothingConfig)
+    revise: ReviseConfig = Field(default_factory=ReviseConfig)
     redetect: RedetectConfig = Field(default_factory=RedetectConfig)
     heading_check: HeadingCheckConfig = Field(default_factory=HeadingCheckConfig)
     leg_swap: LegSwapConfig = Field(default_factory=LegSwapConfig)

@@ -28,12 +28,19 @@ I/O: the caller decodes video and writes the pose log) and returns a :class:`Fra
 7. **Lost track**: best weight below ``lost_weight`` for ``lost_frames`` frames in a row ->
    re-initialise on that frame (kept if it weighs more than the filter's estimate).
 
-Memory does not grow with the length of the footage: the tracker keeps one particle set and the
-previous estimate. Every random draw comes from the injected generator.
+8. **Backward pass** (``config.revise``): once a new track has settled, a copy of the tracker
+   tracks its first frames again backwards in time from the settled state; the revised results
+   ride on a later frame's result (``FrameResult.revisions``; ``tracker.revision.ResultQueue``
+   puts them in order).
+
+Memory does not grow with the length of the footage: the tracker keeps one particle set, the
+previous estimate and, for the backward pass, at most ``revise.max_s`` of low-resolution
+silhouettes. Every random draw comes from the injected generator.
 """
 
 from __future__ import annotations
 
+import copy
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -50,6 +57,7 @@ from tracker.init import body_configurations, floor_point, initial_search
 from tracker.origin import search_origin
 from tracker.raster import numba_threads, prefer_passive_openmp
 from tracker.segmentation import Segmentation, Segmenter, keep_blobs
+from tracker.smoothing import RESTART_STATUSES
 
 log = logging.getLogger(__name__)
 
@@ -84,7 +92,11 @@ class FrameResult:
     notes : list of str
         Remarks worth logging (several blobs and which one was followed, re-initialisation).
     evaluations : int
-        Likelihood evaluations spent on this frame (origin search, filter, initialisation).
+        Likelihood evaluations spent on this frame (origin search, filter, initialisation; for
+        a revised result, also its share of the backward pass).
+    revisions : list of FrameResult
+        Results that replace those already returned for earlier frames (``config.revise``: the
+        backward pass run when the track has settled), oldest first; usually empty.
     """
 
     frame_index: int
@@ -96,10 +108,22 @@ class FrameResult:
     reason: str = ""
     notes: list[str] = field(default_factory=list)
     evaluations: int = 0
+    revisions: list[FrameResult] = field(default_factory=list)
 
     @property
     def has_pose(self) -> bool:
         return self.pose is not None
+
+
+@dataclass
+class _Observation:
+    """What the estimate of one time step is made from, kept for the backward pass: the
+    silhouettes at the likelihood resolution (blobs chosen) and the colour cue's frame."""
+
+    frame_index: int
+    time_s: float
+    masks: list[np.ndarray]
+    colour: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def _numba_threads(n: int):
@@ -337,6 +361,12 @@ class Tracker:
         )
         if self._estimate_girth:
             self._girth_bodies[self.body.shape_key] = self.body
+        #: Backward pass (config.revise): the frames of the track not yet settled, with their
+        #: forward results; tracked frames since the last (re-)initialisation.
+        self._revising = c.revise.enabled
+        self._window: list[tuple[_Observation, FrameResult]] = []
+        self._settled = 0
+        self._last_obs: _Observation | None = None
 
     # -- public -----------------------------------------------------------------------------
     @property
@@ -366,7 +396,17 @@ class Tracker:
         them it does not score this time step.
         """
         with _single_thread():  # small batches; the large ones ask for every thread
-            return self._process(frame_index, time_s, segs, frames)
+            self._last_obs = None
+            res = self._process(frame_index, time_s, segs, frames)
+            if self._revising:
+                res.revisions = self._revise(res)
+            return res
+
+    @property
+    def pending_from(self) -> int | None:
+        """The oldest frame whose result a later frame may still revise (``config.revise``),
+        or None: results of frames before it are final."""
+        return self._window[0][0].frame_index if self._window else None
 
     def _process(
         self,
@@ -383,14 +423,24 @@ class Tracker:
         masks = [s.mask for s in segs]
         if sum(int(m.sum()) for m in masks) < self.config.min_silhouette_px:
             return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW + " (silhouette too small)")
-        self.likelihood.set_silhouettes(masks)
-        self._masks = masks
         if self.colour is not None:  # colour cue: this frame's colours
             if frames is None:
                 self.colour.clear_frame()
             else:
                 same = tuple(self.config.appearance.size) == tuple(self.config.likelihood_size)
                 self.colour.set_frame(frames, masks if same else [s.mask_full for s in segs])
+        obs = _Observation(int(frame_index), float(time_s), masks)
+        if self._revising and self.colour is not None:
+            obs.colour = self.colour.frame_state()
+        res = self._estimate(obs, notes)
+        self._last_obs = obs
+        return res
+
+    def _estimate(self, obs: _Observation, notes: list[str]) -> FrameResult:
+        """Track one time step from its silhouettes (blobs chosen; the colour cue's frame set)."""
+        frame_index, time_s, masks = obs.frame_index, obs.time_s, obs.masks
+        self.likelihood.set_silhouettes(masks)
+        self._masks = masks
         fp = floor_point(self.lik_cameras, masks)
         self._floor_now = np.full(2, np.nan) if fp is None else np.asarray(fp, dtype=np.float64)
         dt = self._dt(time_s)
@@ -456,6 +506,108 @@ class Tracker:
             notes=notes,
             evaluations=self._lik.count,
         )
+
+    # -- backward pass ---------------------------------------------------------------------
+    def _revise(self, res: FrameResult) -> list[FrameResult]:
+        """Keep this frame for the backward pass; run the pass once the track has settled.
+
+        The window opens at an initialisation or re-initialisation (a heading flip included)
+        and closes without a pass when a frame has no pose. A re-initialisation inside it
+        restarts the count of settled frames but not the window: the frames before a flip are
+        the ones facing the wrong way.
+        """
+        rc = self.config.revise
+        obs = self._last_obs
+        if obs is None or not res.has_pose:
+            self._window = []
+            return []
+        restart = res.status in RESTART_STATUSES
+        if not self._window and not restart:
+            return []
+        self._settled = 0 if restart else self._settled + 1
+        self._window.append((obs, res))
+        fps = 1.0 / self.dt_default
+        max_frames = max(2, int(round(rc.max_s * fps)))
+        if len(self._window) > max_frames:  # the oldest are final as tracked
+            self._window = self._window[-max_frames:]
+        if self._settled < max(1, int(round(rc.settle_s * fps))):
+            return []
+        window, self._window = self._window, []
+        revised = self._backward_pass(window)
+        if revised:
+            note = (
+                f"revised frames {revised[0].frame_index}-{revised[-1].frame_index}: tracked "
+                "backwards from this settled frame"
+            )
+            res.notes.append(note)
+            log.info("frame %d: %s", res.frame_index, note)
+        return revised
+
+    def _backward_copy(self) -> Tracker:
+        """A copy of this tracker, now, that tracks backwards in time: motion turned around, no
+        heading check (in reversed time the person walks backwards), nothing estimated about the
+        body. Cameras, body models, segmenters and the generator are shared, not copied."""
+        shared = (
+            self.segmenters,
+            self.cameras,
+            self.lik_cameras,
+            self.body,
+            self._girth_bodies,
+            self._redetect_configs,
+            self.rng,
+            self.limits,
+        )
+        memo: dict[int, object] = {id(x): x for x in shared}
+        memo[id(self._window)] = []
+        b = copy.deepcopy(self, memo)
+        hc = self.config.heading_check.model_copy(update={"enabled": False})
+        b.config = self.config.model_copy(update={"heading_check": hc})
+        b._revising = False
+        b._estimate_girth = b._estimate_parts = False
+        b._alt = None
+        b._path = []
+        b.velocity_xy = -self.velocity_xy
+        b.filter.reverse_motion()
+        return b
+
+    def _backward_pass(self, window: list[tuple[_Observation, FrameResult]]) -> list[FrameResult]:
+        """Track ``window[:-1]`` backwards from the state after ``window[-1]`` (this frame).
+
+        Time is mirrored about this frame so that it still increases. Stops where the backward
+        track is lost; the frames before keep their forward results. Returns the revised
+        results, oldest first: the oldest carries a re-initialisation status (the output is
+        not continuous with the frame before it), the others "tracked".
+        """
+        if len(window) < 2:
+            return []
+        b = self._backward_copy()
+        t0 = window[-1][0].time_s
+        out: list[FrameResult] = []
+        for obs, fwd in reversed(window[:-1]):
+            b._lik.count = 0
+            if b.colour is not None:
+                b.colour.restore_frame(obs.colour)
+            mirrored = _Observation(obs.frame_index, 2.0 * t0 - obs.time_s, obs.masks)
+            r = b._estimate(mirrored, [])
+            if r.status != "tracked":
+                break
+            out.append(
+                FrameResult(
+                    frame_index=fwd.frame_index,
+                    time_s=fwd.time_s,
+                    pose=r.pose,
+                    joints=r.joints,
+                    weight=r.weight,
+                    status="tracked",
+                    notes=list(fwd.notes),
+                    evaluations=fwd.evaluations + b._lik.count,
+                )
+            )
+        if out:
+            first = out[-1]
+            fwd_status = next(f.status for o, f in window if f.frame_index == first.frame_index)
+            first.status = fwd_status if fwd_status in RESTART_STATUSES else "reinitialised"
+        return out[::-1]
 
     # -- steps ------------------------------------------------------------------------------
     def _dt(self, time_s: float) -> float:

@@ -150,6 +150,7 @@ def tracker_callable(seed: int = 0):
     true stature."""
     from gaitwatch.trajectory import Trajectory
     from tracker.pipeline import Tracker
+    from tracker.revision import ResultQueue
     from tracker.smoothing import RESTART_STATUSES, smooth_keypoints
 
     def track(clip) -> Trajectory:
@@ -159,16 +160,18 @@ def tracker_callable(seed: int = 0):
             height_m=float(clip.scene.body.stature_m),
             backgrounds=[np.ascontiguousarray(b[..., ::-1]) for b in clip.backgrounds],
         )
-        frames, times, joints, restarts = [], [], [], []
+        queue, results = ResultQueue(), []
         for k in range(len(clip.truth)):
             res = tracker.process(
                 k, k / clip.fps, [np.ascontiguousarray(f[k][..., ::-1]) for f in clip.frames]
             )
-            if res.has_pose:
-                frames.append(k)
-                times.append(k / clip.fps)
-                joints.append(res.joints)
-                restarts.append(res.status in RESTART_STATUSES)
+            results += queue.push(res, tracker.pending_from)
+        results += queue.flush()
+        results = [r for r in results if r.has_pose]
+        frames = [r.frame_index for r in results]
+        times = [r.frame_index / clip.fps for r in results]
+        joints = [r.joints for r in results]
+        restarts = [r.status in RESTART_STATUSES for r in results]
         if not frames:
             return Trajectory(positions=np.zeros((0, 19, 3)), times=np.zeros(0), frames=[])
         # as `gaitwatch track` writes them

@@ -7,15 +7,19 @@
                     [--seed N] --out POSES.mcap
                     [--config TRACKER.toml|yaml] [--particles N] [--max-frames N]
                     [--segmentation static|mog2|knn] [--threads N] [--allow-length-mismatch]
-                    [--no-smoothing]
+                    [--no-smoothing] [--no-revise]
 
 One VIDEO (a file OpenCV reads, or a folder of numbered PNG/JPEG frames) per ``--camera``, in the
 same order. Frames are processed one at a time (memory does not grow with the footage) and each is
 written to the pose log as soon as it is final: a pose, or a "no pose" status with its reason.
 The key points of each continuous track are smoothed over 0.45 s (:mod:`tracker.smoothing`, a
 centred quadratic fit; ``--no-smoothing`` or ``[smoothing]`` in ``--config`` to change), so a
-frame is written about a quarter of a second of footage after it was read; the pose vector and
-weight are each frame's own. The log is
+frame is written about a quarter of a second of footage after it was read. The first frames of
+each track, from the initial search until the track has settled 0.6 s after its last
+re-initialisation, are tracked again backwards from the settled state (:class:`tracker.config.
+ReviseConfig`; ``--no-revise`` or ``[revise]`` in ``--config``) and written as revised: those
+frames are written up to 4 s of footage after they were read, in frame order; memory stays
+bounded. The pose vector and weight are each frame's own (final) estimate's. The log is
 finalised even when tracking stops on an error (a corrupt frame, videos of different lengths), so
 the poses written so far stay readable; the error is then reported on one line and the exit code
 is non-zero. Every random draw comes from one generator seeded by ``--seed``: the same seed gives
@@ -94,6 +98,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="write each frame's own estimate (default: key points smoothed over 0.45 s, "
         "settings [smoothing] of --config)",
     )
+    p.add_argument(
+        "--no-revise",
+        action="store_true",
+        help="no backward pass over the first frames of each track (default: re-tracked "
+        "backwards once the track has settled, settings [revise] of --config)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -108,6 +118,8 @@ def build_config(args: argparse.Namespace) -> TrackerConfig:
         update["segmentation"] = config.segmentation.model_copy(update={"mode": args.segmentation})
     if getattr(args, "no_smoothing", False):
         update["smoothing"] = config.smoothing.model_copy(update={"enabled": False})
+    if getattr(args, "no_revise", False):
+        update["revise"] = config.revise.model_copy(update={"enabled": False})
     if args.particles is not None:
         if args.particles < 1:
             raise TrackArgumentError(f"--particles must be >= 1, not {args.particles}")
@@ -130,6 +142,7 @@ def run(args: argparse.Namespace) -> int:
     from service.video import open_videos, read_image
     from tracker.camera import check_image_size, load_cameras
     from tracker.pipeline import Tracker
+    from tracker.revision import ResultQueue
     from tracker.smoothing import RESTART_STATUSES, KeypointSmoother
 
     if not (0.5 <= args.height <= 2.5):
@@ -188,6 +201,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     n_pose = n_none = 0
     smoother = KeypointSmoother.from_config(config.smoothing, cameras[0].fps)
+    queue = ResultQueue()  # results still open to the backward pass (config.revise)
     t0 = time.perf_counter()
     with (
         videos,
@@ -224,20 +238,25 @@ def run(args: argparse.Namespace) -> int:
                 for note in res.notes:
                     writer.write_note(index, time_s, note)
 
-        try:
-            for index, time_s, frames in itertools.islice(videos, args.max_frames):
-                res = tracker.process(index, time_s, frames)
+        def smooth(final: list) -> None:
+            for res in final:
                 write(
                     smoother.push(
-                        time_s,
+                        res.time_s,
                         res.joints if res.has_pose else None,
-                        (index, time_s, res),
+                        (res.frame_index, res.time_s, res),
                         restart=res.status in RESTART_STATUSES,
                     )
                 )
+
+        try:
+            for index, time_s, frames in itertools.islice(videos, args.max_frames):
+                res = tracker.process(index, time_s, frames)
+                smooth(queue.push(res, tracker.pending_from))
                 bar.update(1)
                 bar.set_postfix(weight=f"{res.weight:.2f}", refresh=False)
-        finally:  # the frames still in the smoother's window are written, even after an error
+        finally:  # the frames still held (revision, smoothing) are written, even after an error
+            smooth(queue.flush())
             write(smoother.flush())
     elapsed = time.perf_counter() - t0
     n = n_pose + n_none

@@ -196,6 +196,11 @@ class Filter(ABC):
     def initialised(self) -> bool:
         return self.particles.shape[0] > 0
 
+    def reverse_motion(self) -> None:
+        """Time will now run backwards (a backward pass over earlier frames): turn any motion
+        the filter predicts from its past estimates around. The random-walk filters keep none."""
+        return None
+
     def set_root(self, root: np.ndarray) -> None:
         """Give every particle the body origin (6,) found for this frame (x, y, z, yaw, pitch,
         roll)."""

@@ -167,6 +167,11 @@ class IntervalParticleFilter(Filter):
         else:
             self._history[-1] = best
 
+    def reverse_motion(self) -> None:
+        """The last two estimates in the other order: the velocity-centred intervals and the
+        adaptive widths then follow the motion backwards."""
+        self._history = self._history[::-1]
+
     def velocity_shift(self, dt: float) -> np.ndarray:
         """Shift (n,) of the interval centres: 0 for ``interval_centre="value"`` (the method)."""
         if self.config.interval_centre != "velocity" or len(self._history) < 2:
