@@ -27,7 +27,9 @@ proportions, and its likelihood weight against the estimate's tells a search fai
 weighs more) from a likelihood ambiguity (a wrong pose weighs more).
 
 ms/frame is the median wall time of ``Tracker.process`` per frame (segmentation, blob choice,
-origin search, filter, forward kinematics; decoding excluded), on whatever load the machine has.
+origin search, filter, forward kinematics; decoding excluded), on whatever load the machine has;
+the backward pass (``revise``) runs inside the frame that ends a track's settling, so the
+median leaves it out.
 
 Run::
 
@@ -849,8 +851,10 @@ def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float
     cmd = "python3 bench/accuracy.py" + ("" if not argv else " " + shlex.join(argv))
     from tracker.config import TrackerConfig, load_tracker_config
 
-    sm = (load_tracker_config(args.config) if args.config else TrackerConfig()).smoothing
+    tcfg = load_tracker_config(args.config) if args.config else TrackerConfig()
+    sm, rv = tcfg.smoothing, tcfg.revise
     smoothing_text = f"{sm.window_s} s window, order {sm.order}" if sm.enabled else "off"
+    revise_text = f"settled after {rv.settle_s} s" if rv.enabled else "off"
     settings_text = (
         f"tracker settings `{args.config}` over the defaults ("
         if args.config
@@ -878,8 +882,9 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
   "body"){"; every person dressed in one plain colour (--one-colour)" if args.one_colour else ""};
   a 90 degree turn in 16_18; occluders (`@table`, `@sofa`) stand between the first camera and
   the walk.
-- Scored: the key points as `gaitwatch track` writes them, smoothed over each continuous track
-  (`tracker.smoothing`, the settings' `[smoothing]`: {smoothing_text}).
+- Scored: the key points as `gaitwatch track` writes them: each track's first frames revised
+  by the backward pass (the settings' `[revise]`: {revise_text}), smoothed over each continuous
+  track (`tracker.smoothing`, the settings' `[smoothing]`: {smoothing_text}).
 - Metrics (`gaitwatch.evaluation`): mean per-joint position error over the 19 key points and
   over the lower limbs (hips, knees, ankles, heels, toes), per group; hip and knee flexion RMSE
   (gait.kinematics, both sides); L/R swap = share of tracked frames where exchanging the

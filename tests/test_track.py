@@ -528,15 +528,16 @@ def test_track_cli_writes_the_revised_first_frames_in_order(
 ) -> None:
     """The backward pass (config.revise) rewrites the frames before the track settled: the log
     still has each frame once, in order; --no-revise gives the forward estimates."""
-    common = ["--seed", "3", "--max-frames", "16", "--particles", "729", "--no-smoothing"]
+    settled = round(TrackerConfig().revise.settle_s * FPS)  # no heading flip on this clip
+    n = settled + 4
+    common = ["--seed", "3", "--max-frames", str(n), "--particles", "729", "--no-smoothing"]
     rev_out, fwd_out = tmp_path / "rev.mcap", tmp_path / "fwd.mcap"
     assert main(_args(clip, rev_out, *common)) == 0, capsys.readouterr().err
     assert main(_args(clip, fwd_out, *common, "--no-revise")) == 0, capsys.readouterr().err
     rev, fwd = read_poselog(rev_out), read_poselog(fwd_out)
-    assert rev.trajectory.frames.tolist() == fwd.trajectory.frames.tolist() == list(range(16))
+    assert rev.trajectory.frames.tolist() == fwd.trajectory.frames.tolist() == list(range(n))
     assert rev.metadata["settings"]["tracker"]["revise"]["enabled"] is True
     assert fwd.metadata["settings"]["tracker"]["revise"]["enabled"] is False
-    settled = round(0.6 * FPS)  # no heading flip on this clip: settled 0.6 s after frame 0
     notes = [(k, text) for k, _, text in rev.notes if text.startswith("revised frames")]
     assert notes == [
         (settled, f"revised frames 0-{settled - 1}: tracked backwards from this settled frame")

@@ -794,7 +794,7 @@ class ReviseConfig(_Model):
             description="Seconds of tracking since the last (re-)initialisation after which the "
             "track counts as settled and the backward pass runs",
         ),
-    ] = 0.6
+    ] = 0.9
     max_s: Annotated[
         float,
         Field(

@@ -15,7 +15,7 @@ written to the pose log as soon as it is final: a pose, or a "no pose" status wi
 The key points of each continuous track are smoothed over 0.45 s (:mod:`tracker.smoothing`, a
 centred quadratic fit; ``--no-smoothing`` or ``[smoothing]`` in ``--config`` to change), so a
 frame is written about a quarter of a second of footage after it was read. The first frames of
-each track, from the initial search until the track has settled 0.6 s after its last
+each track, from the initial search until the track has settled 0.9 s after its last
 re-initialisation, are tracked again backwards from the settled state (:class:`tracker.config.
 ReviseConfig`; ``--no-revise`` or ``[revise]`` in ``--config``) and written as revised: those
 frames are written up to 4 s of footage after they were read, in frame order; memory stays
