@@ -555,6 +555,41 @@ def test_track_cli_writes_the_revised_first_frames_in_order(
     assert err[0] < err[1] + 0.01, err
 
 
+def test_backward_pass_window_closes_on_no_pose_and_reopens(clip: dict) -> None:
+    """The frames open to revision are those since a track began: a frame without a pose ends
+    the window without a pass (nothing revised), the next initialisation opens a new one."""
+    from tracker.config import ReviseConfig
+    from tracker.pipeline import Tracker
+
+    tr = Tracker(
+        clip["cams"],
+        TrackerConfig(ipf=IPFConfig(kept=9), revise=ReviseConfig(settle_s=4 / FPS)),
+        rng=np.random.default_rng(2),
+        backgrounds=clip["bgs"],
+        body=clip["body"],
+    )
+    empty = [b.copy() for b in clip["bgs"]]
+    seq = [0, 1, 2, None, 3, 4, 5, 6, 7, 8]  # None: the empty scene
+    results, pending = [], []
+    for k, i in enumerate(seq):
+        frames = empty if i is None else clip["frames"][i]
+        results.append(tr.process(k, k / FPS, frames))
+        pending.append(tr.pending_from)
+    assert [r.status for r in results[:5]] == [
+        "initialised",
+        "tracked",
+        "tracked",
+        "no_pose",
+        "reinitialised",
+    ]
+    assert pending[:5] == [0, 0, 0, None, 4]  # frames 0-2 were never revised
+    assert all(not r.revisions for r in results[:8])
+    # settled 4 frames after the re-initialisation at frame 4: frames 4-7 revised at frame 8
+    assert [x.frame_index for x in results[8].revisions] == [4, 5, 6, 7]
+    assert results[8].revisions[0].status == "reinitialised"
+    assert pending[8] is None and pending[9] is None
+
+
 def test_corrupt_frame_keeps_poses_written_so_far(clip: dict, tmp_path: Path, capsys) -> None:
     folders = []
     for c in range(2):

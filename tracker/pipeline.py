@@ -367,6 +367,9 @@ class Tracker:
         self._window: list[tuple[_Observation, FrameResult]] = []
         self._settled = 0
         self._last_obs: _Observation | None = None
+        #: -1 in the backward pass's copy: time runs backwards, so the walking direction is
+        #: the opposite of the path's.
+        self._time_sign = 1.0
 
     # -- public -----------------------------------------------------------------------------
     @property
@@ -544,8 +547,9 @@ class Tracker:
         return revised
 
     def _backward_copy(self) -> Tracker:
-        """A copy of this tracker, now, that tracks backwards in time: motion turned around, no
-        heading check (in reversed time the person walks backwards), nothing estimated about the
+        """A copy of this tracker, now, that tracks backwards in time: motion turned around (the
+        filter's, the origin's velocity, and the walking direction of the heading check and turn
+        following: in reversed time the person walks backwards), nothing estimated about the
         body. Cameras, body models, segmenters and the generator are shared, not copied."""
         shared = (
             self.segmenters,
@@ -560,12 +564,12 @@ class Tracker:
         memo: dict[int, object] = {id(x): x for x in shared}
         memo[id(self._window)] = []
         b = copy.deepcopy(self, memo)
-        hc = self.config.heading_check.model_copy(update={"enabled": False})
-        b.config = self.config.model_copy(update={"heading_check": hc})
         b._revising = False
         b._estimate_girth = b._estimate_parts = False
         b._alt = None
         b._path = []
+        b._heading_checked_until = -np.inf
+        b._time_sign = -self._time_sign
         b.velocity_xy = -self.velocity_xy
         b.filter.reverse_motion()
         return b
@@ -573,10 +577,11 @@ class Tracker:
     def _backward_pass(self, window: list[tuple[_Observation, FrameResult]]) -> list[FrameResult]:
         """Track ``window[:-1]`` backwards from the state after ``window[-1]`` (this frame).
 
-        Time is mirrored about this frame so that it still increases. Stops where the backward
-        track is lost; the frames before keep their forward results. Returns the revised
-        results, oldest first: the oldest carries a re-initialisation status (the output is
-        not continuous with the frame before it), the others "tracked".
+        Time is mirrored about this frame so that it still increases. Stops at a frame without
+        a pose; the frames before keep their forward results. Returns the revised results,
+        oldest first: the oldest carries a re-initialisation status (the output is not
+        continuous with the frame before it), as does the frame after one where the backward
+        track re-initialised (a heading flip, a lost track); the others are "tracked".
         """
         if len(window) < 2:
             return []
@@ -589,8 +594,10 @@ class Tracker:
                 b.colour.restore_frame(obs.colour)
             mirrored = _Observation(obs.frame_index, 2.0 * t0 - obs.time_s, obs.masks)
             r = b._estimate(mirrored, [])
-            if r.status != "tracked":
+            if not r.has_pose:
                 break
+            if r.status in RESTART_STATUSES and out:  # not continuous with the later frame
+                out[-1].status = "reinitialised"
             out.append(
                 FrameResult(
                     frame_index=fwd.frame_index,
@@ -1107,7 +1114,7 @@ class Tracker:
             return None
         # Least-squares velocity over the window: robust to the jitter of single estimates.
         t = path[:, 0] - path[:, 0].mean()
-        v = (t @ (path[:, 1:] - path[:, 1:].mean(axis=0))) / (t @ t)
+        v = self._time_sign * (t @ (path[:, 1:] - path[:, 1:].mean(axis=0))) / (t @ t)
         if np.hypot(*v) < hc.min_speed_m_s:
             return None
         steps = np.hypot(*np.diff(path[:, 1:], axis=0).T).sum()
