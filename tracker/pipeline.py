@@ -433,8 +433,6 @@ class Tracker:
                 same = tuple(self.config.appearance.size) == tuple(self.config.likelihood_size)
                 self.colour.set_frame(frames, masks if same else [s.mask_full for s in segs])
         obs = _Observation(int(frame_index), float(time_s), masks)
-        if self._revising and self.colour is not None:
-            obs.colour = self.colour.frame_state()
         res = self._estimate(obs, notes)
         self._last_obs = obs
         return res
@@ -528,6 +526,8 @@ class Tracker:
         if not self._window and not restart:
             return []
         self._settled = 0 if restart else self._settled + 1
+        if self.colour is not None:  # this frame's colours (estimating does not change them)
+            obs.colour = self.colour.frame_state()
         self._window.append((obs, res))
         fps = 1.0 / self.dt_default
         max_frames = max(2, int(round(rc.max_s * fps)))
@@ -588,6 +588,7 @@ class Tracker:
         b = self._backward_copy()
         t0 = window[-1][0].time_s
         out: list[FrameResult] = []
+        oldest = window[-1][1]  # the forward result of the oldest frame revised
         for obs, fwd in reversed(window[:-1]):
             b._lik.count = 0
             if b.colour is not None:
@@ -610,10 +611,10 @@ class Tracker:
                     evaluations=fwd.evaluations + b._lik.count,
                 )
             )
+            oldest = fwd
         if out:
-            first = out[-1]
-            fwd_status = next(f.status for o, f in window if f.frame_index == first.frame_index)
-            first.status = fwd_status if fwd_status in RESTART_STATUSES else "reinitialised"
+            restart = oldest.status in RESTART_STATUSES
+            out[-1].status = oldest.status if restart else "reinitialised"
         return out[::-1]
 
     # -- steps ------------------------------------------------------------------------------
@@ -644,6 +645,18 @@ class Tracker:
         body = (base or self.body).with_shape(girth, parts)
         return self._girth_bodies.setdefault(body.shape_key, body)
 
+    def _shape_score(self, body, candidates: np.ndarray) -> float:
+        """Best weight of ``candidates`` (poses, n x 31) with ``body``'s volumes; the body is
+        left in use (the callers set the one they keep)."""
+        self._set_body(body)
+        return float(np.max(np.asarray(self._lik.weights(candidates), dtype=np.float64)))
+
+    def _shape_candidates(self, pose: np.ndarray) -> np.ndarray:
+        """The estimate and the filter's 9 heaviest distinct particles (girths are scored on)."""
+        f = self.filter
+        idx = select_distinct(f.particles, f.weights, 9)
+        return np.concatenate([pose[None], f.particles[idx]])
+
     def _update_part_girths(self, pose: np.ndarray) -> None:
         """Score every part factor on this frame's particles; each part keeps its best so far.
 
@@ -654,18 +667,14 @@ class Tracker:
         factor; after the last the factors are fixed.
         """
         factors = self.config.init.part_girths
-        f = self.filter
-        idx = select_distinct(f.particles, f.weights, 9)
-        cand = np.concatenate([pose[None], f.particles[idx]])
+        cand = self._shape_candidates(pose)
         current = self.body
         best: dict[str, float] = {}
         with _single_thread():
             for part in GIRTH_PARTS:
                 for g in factors:
-                    self._set_body(self._girth_body(parts={part: g}, base=current))
-                    w = np.asarray(self._lik.weights(cand), dtype=np.float64)
-                    key = (part, g)
-                    self._part_scores[key] = self._part_scores.get(key, 0.0) + float(w.max())
+                    w = self._shape_score(self._girth_body(parts={part: g}, base=current), cand)
+                    self._part_scores[(part, g)] = self._part_scores.get((part, g), 0.0) + w
                 best[part] = max(factors, key=lambda g, p=part: self._part_scores[(p, g)])
         self._set_body(self._girth_body(parts=best, base=current))
         self._part_frames_left -= 1
@@ -683,15 +692,12 @@ class Tracker:
         with the largest sum of best weights is used, then kept for the rest of the footage.
         """
         girths = self.config.init.girths
-        f = self.filter
-        idx = select_distinct(f.particles, f.weights, 9)
-        cand = np.concatenate([pose[None], f.particles[idx]])
+        cand = self._shape_candidates(pose)
         current = self.body
         with _single_thread():
             for g in girths:
-                self._set_body(self._girth_body(g))
-                w = np.asarray(self._lik.weights(cand), dtype=np.float64)
-                self._girth_scores[g] = self._girth_scores.get(g, 0.0) + float(w.max())
+                w = self._shape_score(self._girth_body(g), cand)
+                self._girth_scores[g] = self._girth_scores.get(g, 0.0) + w
         best = max(girths, key=lambda g: self._girth_scores[g])
         self._set_body(self._girth_body(best) if best != current.girth else current)
         self._girth_frames_left -= 1
