@@ -483,11 +483,12 @@ def track(
 
     cfg = variant_config(filt, settings)
     tr = Tracker(cams, cfg, rng=np.random.default_rng(seed), height_m=stature, backgrounds=bgs)
+    from tracker.revision import ResultQueue
     from tracker.smoothing import RESTART_STATUSES, smooth_keypoints
 
     out_f, out_t, joints, times_ms, ev_tr, ev_init, statuses = [], [], [], [], [], [], []
     restarts: list[bool] = []
-    final: dict[int, object] = {}
+    queue, final = ResultQueue(), []  # each frame's final result, as `gaitwatch track` has it
     seg_iou, est_iou, seen, weights, fit_w, est_w = [], [], [], [], [], []
     fits = fits or {}
     segment = tr.segment
@@ -522,15 +523,14 @@ def track(
             if k in fits:
                 fit_w.append(float(tr.likelihood.weights(fits[k][None])[0]))
                 est_w.append(float(tr.likelihood.weights(res.pose[None])[0]))
-            final[k] = res
-        for rev in res.revisions:  # the backward pass over a track's first frames
-            final[rev.frame_index] = rev
+        final += queue.push(res, tr.pending_from)  # the backward pass revises early frames
         bar.update(1)
-    for k in sorted(final):  # each frame's final result, as `gaitwatch track` writes it
-        out_f.append(k)
-        out_t.append(k / fps)
-        joints.append(final[k].joints)
-        restarts.append(final[k].status in RESTART_STATUSES)
+    for r in [*final, *queue.flush()]:
+        if r.has_pose:
+            out_f.append(r.frame_index)
+            out_t.append(r.frame_index / fps)
+            joints.append(r.joints)
+            restarts.append(r.status in RESTART_STATUSES)
     if joints:
         # the key points as `gaitwatch track` writes them (tracker.smoothing; the settings'
         # [smoothing] section, on by default)

@@ -226,7 +226,8 @@ def run(args: argparse.Namespace) -> int:
         def write(done: list) -> None:
             nonlocal n_pose, n_none
             for out in done:
-                index, time_s, res = out.item
+                res = out.item
+                index, time_s = res.frame_index, res.time_s
                 if res.has_pose:
                     writer.write_frame(
                         index, time_s, out.joints, res.pose, res.weight, tracker.filter_name
@@ -244,7 +245,7 @@ def run(args: argparse.Namespace) -> int:
                     smoother.push(
                         res.time_s,
                         res.joints if res.has_pose else None,
-                        (res.frame_index, res.time_s, res),
+                        res,
                         restart=res.status in RESTART_STATUSES,
                     )
                 )
