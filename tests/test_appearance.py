@@ -180,6 +180,42 @@ def test_off_or_without_a_frame_gives_the_silhouette_weights(body, cameras, scen
     assert TrackerConfig().appearance.enabled  # on by default (it wins on the 108 probe runs)
 
 
+def test_hidden_samples_score_typical_behind_known_occluders(body, cameras, scene) -> None:
+    """Behind a known occluder (and outside the silhouette) a sample scores the typical score:
+    hidden legs neither cost nor gain; samples elsewhere and the other camera are unchanged."""
+    cue = _learned_cue(body, cameras, scene)
+    cue.typical = 0.7
+    pose = scene["pose"]
+    mask0 = scene["masks"][0]
+    ys = np.flatnonzero(mask0.any(axis=1))
+    cut = int(ys[0] + 0.55 * (ys[-1] - ys[0]))
+    hidden_masks = [m.copy() for m in scene["masks"]]
+    hidden_masks[0][cut:] = False  # the legs are hidden in camera 0
+    occ = np.zeros_like(mask0)
+    occ[cut:] = True
+    cue.set_frame(scene["frames"], hidden_masks)
+    pts = body.points(pose[None])
+    plain = cue._sums(body, pts, None)[0]
+    # full resolution masks are accepted and resized to the cue's size
+    big = cv2.resize(occ.astype(np.uint8), (640, 480), interpolation=cv2.INTER_NEAREST)
+    cue.set_occlusion([big, None])
+    assert cue.occluded[0] is not None and cue.occluded[1] is None
+    sums = cue._sums(body, pts, None)[0]
+    assert sums[1] == plain[1]
+    assert sums[0] > plain[0]  # the hidden leg samples now score 0.7 instead of 0
+    maps = cue._score_maps()
+    on = np.flatnonzero(cue._part_on)
+    np.testing.assert_array_equal(maps[0][:, cut:][on], np.float32(0.7))
+    np.testing.assert_array_less(maps[0][:, :cut][on][:, ~hidden_masks[0][:cut]], 1e-12)
+    # reset forgets the person, not the room
+    cue.reset()
+    assert cue.occluded[0] is not None
+    cue.set_occlusion(None)
+    assert all(o is None for o in cue.occluded)
+    with pytest.raises(ValueError, match="2 occlusion masks"):
+        cue.set_occlusion([occ])
+
+
 def test_config_is_validated() -> None:
     with pytest.raises(ValidationError):
         TrackerConfig.model_validate({"appearance": {"enabled": True, "colour": "red"}})

@@ -274,3 +274,67 @@ def test_warm_up_compiles_every_kernel() -> None:
     assert warm_up() >= 0.0
     for kernel in (raster.counts_kernel, raster.counts_factored_kernel, raster.render_one_kernel):
         assert kernel.signatures  # compiled (or loaded from the cache)
+
+
+def test_known_occluders_hide_model_pixels(body: BodyModel, cameras: list[Camera]) -> None:
+    """Model pixels behind an occluder count neither as common nor as model-only; silhouette
+    pixels there still count; factored and expanded counts agree; None clears."""
+    pose = _walking_pose(body)
+    truth = [render_reference(body, pose, cam) for cam in cameras]
+    # a table in front of the legs in camera 0: the silhouette loses the rows below `cut`
+    ys = np.flatnonzero(truth[0].any(axis=1))
+    cut = int(ys[0] + 0.55 * (ys[-1] - ys[0]))
+    occ0 = np.zeros_like(truth[0])
+    occ0[cut:] = True
+    sils = [t.copy() for t in truth]
+    sils[0][cut:] = False
+    lik = SilhouetteLikelihood(body, cameras)
+    rng = np.random.default_rng(8)
+    poses = np.concatenate([pose[None], _random_poses(body, rng, 20)])
+    lik.set_silhouettes(sils)
+    plain = lik.counts(poses)
+    lik.set_occlusion([occ0, None, None])
+    assert lik.occluded[0] is not None and lik.occluded[1] is None
+    lik.set_silhouettes(sils)  # takes effect with the next silhouettes
+    hidden = lik.counts(poses)
+    # by hand for camera 0: Nm without the model's pixels behind the table
+    for i, p in enumerate(poses[:6]):
+        m = lik.render_mask(p, 0)
+        nc = int(np.count_nonzero(m & sils[0]))
+        assert hidden[i, 0, 0] == plain[i, 0, 0] == nc
+        assert hidden[i, 0, 1] == plain[i, 0, 1]
+        assert hidden[i, 0, 2] == int(np.count_nonzero(m & ~sils[0] & ~occ0))
+    np.testing.assert_array_equal(hidden[:, 1:], plain[:, 1:])  # other cameras untouched
+    # the true pose: its hidden legs no longer count against it, so it weighs more
+    assert plain[0, 0, 2] > hidden[0, 0, 2]
+    w_plain = weight_from_counts(plain)
+    w_hidden = weight_from_counts(hidden)
+    assert w_hidden[0] > w_plain[0]
+    # silhouette pixels inside the occluder mask still count (a person in front of the table)
+    lik.set_silhouettes(truth)
+    front = lik.counts(pose[None])
+    lik.set_occlusion(None)
+    lik.set_silhouettes(truth)
+    np.testing.assert_array_equal(lik.counts(pose[None])[0, 0, :2], front[0, 0, :2])
+    assert front[0, 0, 2] <= lik.counts(pose[None])[0, 0, 2]
+    # factored counts agree with the expanded ones under occlusion
+    lik.set_occlusion([occ0, None, None])
+    lik.set_silhouettes(sils)
+    base = poses[:3]
+    left = base[:, None, list(LEFT_LEG)] + rng.normal(0, 0.3, (3, 4, 6))
+    right = base[:, None, list(RIGHT_LEG)] + rng.normal(0, 0.3, (3, 5, 6))
+    full = np.repeat(np.repeat(base[:, None, None, :], 4, 1), 5, 2)
+    full[..., list(LEFT_LEG)] = left[:, :, None, :]
+    full[..., list(RIGHT_LEG)] = right[:, None, :, :]
+    np.testing.assert_array_equal(
+        lik.counts_factored(base, left, right),
+        lik.counts(full.reshape(-1, N_DOF)).reshape(3, 4, 5, 3, 3),
+    )
+    lik.set_occlusion(None)
+    assert all(o is None for o in lik.occluded)
+    lik.set_silhouettes(sils)
+    np.testing.assert_array_equal(lik.counts(poses), plain)
+    with pytest.raises(ValueError, match="3 occlusion masks"):
+        lik.set_occlusion([occ0])
+    with pytest.raises(ValueError, match="wide-corner"):
+        lik.set_occlusion([occ0, None, occ0])

@@ -309,6 +309,8 @@ class ColourCue:
         self.img = np.zeros((len(self.cameras), hmax, wmax, 3), dtype=np.float32)
         self.mask = np.zeros((len(self.cameras), hmax, wmax), dtype=np.bool_)
         self.has_frame = False
+        #: Per camera, bool (H, W) pixels behind a known static occluder (or None).
+        self.occluded: list[np.ndarray | None] = [None] * len(self.cameras)
         #: The colour score of recent estimates (the normaliser of the factor), None at first.
         self.typical: float | None = None
         self._maps: np.ndarray | None = None
@@ -355,6 +357,26 @@ class ColourCue:
         self.has_frame = True
         self._maps = None
 
+    def set_occlusion(self, occluded: Sequence[np.ndarray | None] | None) -> None:
+        """Pixels behind known static occluders, one bool mask (any size, resized to the
+        working size) or None per camera; None clears all. A sample that falls there outside
+        the silhouette scores the typical score of recent estimates instead of 0: a hidden part
+        is neither rewarded nor penalised."""
+        out: list[np.ndarray | None] = [None] * len(self.cameras)
+        if occluded is not None:
+            if len(occluded) != len(self.cameras):
+                raise ValueError(
+                    f"expected {len(self.cameras)} occlusion masks, got {len(occluded)}"
+                )
+            for k, (o, cam) in enumerate(zip(occluded, self.cameras, strict=True)):
+                if o is None or not np.any(o):
+                    continue
+                o = np.asarray(o, dtype=np.uint8)
+                o = cv2.resize(o, (cam.width, cam.height), interpolation=cv2.INTER_NEAREST) > 0
+                out[k] = o
+        self.occluded = out
+        self._maps = None
+
     def clear_frame(self) -> None:
         """No frame for this time step: the cue does not score until the next one is set."""
         self.has_frame = False
@@ -395,6 +417,14 @@ class ColourCue:
             self._maps = score_maps_kernel(
                 self.img, self.mask, self.ref, self.inv2s2, self._part_on
             )
+            typ = self.typical if self.typical else 0.0
+            for k, occ in enumerate(self.occluded):
+                if occ is None or typ <= 0.0:
+                    continue
+                h, w = occ.shape
+                hidden = occ & ~self.mask[k, :h, :w]
+                for p in np.flatnonzero(self._part_on):
+                    self._maps[k, p, :h, :w][hidden] = typ
         return self._maps
 
     def _sums(self, body: BodyModel, pts: np.ndarray, group: int | None) -> np.ndarray:
@@ -544,8 +574,10 @@ class ColourCue:
         return True
 
     def reset(self) -> None:
-        """Forget everything learned (another person)."""
+        """Forget everything learned (another person); the scene's occluders stay."""
+        occluded = self.occluded
         self.__init__(self.cameras, self.config)  # type: ignore[misc]
+        self.occluded = occluded
 
 
 __all__ = [

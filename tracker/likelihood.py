@@ -106,7 +106,10 @@ class SilhouetteLikelihood:
         self._hmax = int(self.cam_hw[:, 0].max())
         self._words = int((self.cam_hw[:, 1].max() + 63) // 64)
         self._sil: np.ndarray | None = None
+        self._vis: np.ndarray | None = None
         self._sil_total = np.zeros(k, dtype=np.int64)
+        #: Per camera, bool (H, W) pixels behind a known static occluder, or None.
+        self._occluded: list[np.ndarray | None] = [None] * k
         #: Optional colour cue (tracker.appearance.ColourCue): multiplies the weights when active.
         self.appearance = None
 
@@ -121,6 +124,7 @@ class SilhouetteLikelihood:
                 f"expected {self.n_cameras} silhouettes (one per camera), got {len(silhouettes)}"
             )
         sil = np.zeros((self.n_cameras, self._hmax, self._words), dtype=np.uint64)
+        vis = np.full_like(sil, np.uint64(0xFFFFFFFFFFFFFFFF))
         total = np.zeros(self.n_cameras, dtype=np.int64)
         for i, (s, cam) in enumerate(zip(silhouettes, self.cameras, strict=True)):
             s = np.asarray(s)
@@ -132,8 +136,44 @@ class SilhouetteLikelihood:
             s = s.astype(bool, copy=False)
             sil[i, : cam.height] = raster.pack_rows(s, self._words)
             total[i] = int(np.count_nonzero(s))
+            occ = self._occluded[i]
+            if occ is not None:
+                vis[i, : cam.height] = raster.pack_rows(~occ | s, self._words)
         self._sil = sil
+        self._vis = vis
         self._sil_total = total
+
+    def set_occlusion(self, occluded: Sequence[np.ndarray | None] | None) -> None:
+        """Pixels behind known static occluders (furniture), one bool ``(H, W)`` or None per
+        camera; None clears all. From the next :meth:`set_silhouettes` on, model pixels there
+        do not count as model-only (``Nm``): a hidden limb is neither rewarded nor penalised.
+        Silhouette pixels always count.
+        """
+        if occluded is None:
+            self._occluded = [None] * self.n_cameras
+            return
+        if len(occluded) != self.n_cameras:
+            raise ValueError(
+                f"expected {self.n_cameras} occlusion masks (one per camera), got {len(occluded)}"
+            )
+        out: list[np.ndarray | None] = []
+        for i, (o, cam) in enumerate(zip(occluded, self.cameras, strict=True)):
+            if o is None:
+                out.append(None)
+                continue
+            o = np.asarray(o, dtype=bool)
+            if o.shape != (cam.height, cam.width):
+                raise ValueError(
+                    f"occlusion mask {i} has shape {o.shape}, camera {cam.name!r} expects "
+                    f"{(cam.height, cam.width)} (height, width)"
+                )
+            out.append(o.copy() if o.any() else None)
+        self._occluded = out
+
+    @property
+    def occluded(self) -> list[np.ndarray | None]:
+        """The occlusion masks set by :meth:`set_occlusion` (None: nothing occluded)."""
+        return list(self._occluded)
 
     def _require_silhouettes(self) -> np.ndarray:
         if self._sil is None:
@@ -162,6 +202,7 @@ class SilhouetteLikelihood:
             self.cams,
             self.cam_hw,
             sil,
+            self._vis,
             self._sil_total,
             4 * nb.get_num_threads(),
         )
@@ -220,6 +261,7 @@ class SilhouetteLikelihood:
             self.cams,
             self.cam_hw,
             sil,
+            self._vis,
             self._sil_total,
             4 * nb.get_num_threads(),
         )

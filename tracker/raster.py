@@ -435,16 +435,17 @@ def render_capsules(
 
 @nb.njit(cache=True, inline="always")
 def _count_clear(
-    mask: np.ndarray, slot: int, sil: np.ndarray, k: int, bbox: np.ndarray
+    mask: np.ndarray, slot: int, sil: np.ndarray, vis: np.ndarray, k: int, bbox: np.ndarray
 ) -> tuple[int, int]:
-    """(model pixels, common pixels) of mask[slot] against sil[k] within bbox[slot]; clears."""
+    """(counted model pixels, common pixels) of mask[slot] against sil[k] within bbox[slot];
+    clears. Model pixels count where ``vis[k]`` is set (not behind a known occluder)."""
     tot = 0
     com = 0
     for y in range(bbox[slot, 0], bbox[slot, 1] + 1):
         for w in range(bbox[slot, 2], bbox[slot, 3] + 1):
             m = mask[slot, y, w]
             if m:
-                tot += popcount64(m)
+                tot += popcount64(m & vis[k, y, w])
                 com += popcount64(m & sil[k, y, w])
                 mask[slot, y, w] = 0
     return tot, com
@@ -460,6 +461,7 @@ def _counts_range(
     cams: np.ndarray,
     cam_hw: np.ndarray,
     sil: np.ndarray,
+    vis: np.ndarray,
     sil_total: np.ndarray,
     out: np.ndarray,
 ) -> None:
@@ -473,7 +475,7 @@ def _counts_range(
             render_capsules(
                 pts, i, sel, cap_ab, radii, cams, k, cam_hw[k, 0], cam_hw[k, 1], mask, 0, bbox
             )
-            tot, com = _count_clear(mask, 0, sil, k, bbox)
+            tot, com = _count_clear(mask, 0, sil, vis, k, bbox)
             out[i, k, 0] = com
             out[i, k, 1] = sil_total[k] - com
             out[i, k, 2] = tot - com
@@ -487,6 +489,7 @@ def counts_kernel(
     cams: np.ndarray,
     cam_hw: np.ndarray,
     sil: np.ndarray,
+    vis: np.ndarray,
     sil_total: np.ndarray,
     nchunks: int,
 ) -> np.ndarray:
@@ -498,6 +501,8 @@ def counts_kernel(
     cap_ab : (C, 2) int64 point indices of the capsule ends; radii : (C, 2) metres.
     cams : (K, 32) packed cameras; cam_hw : (K, 2) int64 image height and width.
     sil : (K, H, W64) uint64 bit-packed silhouettes; sil_total : (K,) their pixel counts.
+    vis : (K, H, W64) uint64 bit-packed pixels where model pixels count (Nm): all set but
+    behind a known occluder, silhouette pixels always set (so Nc <= the counted model pixels).
     nchunks : work units (a multiple of the thread count) that share the batch.
     """
     n = pts.shape[0]
@@ -513,6 +518,7 @@ def counts_kernel(
             cams,
             cam_hw,
             sil,
+            vis,
             sil_total,
             out,
         )
@@ -534,6 +540,7 @@ def _factored_range(
     cams: np.ndarray,
     cam_hw: np.ndarray,
     sil: np.ndarray,
+    vis: np.ndarray,
     sil_total: np.ndarray,
     out: np.ndarray,
 ) -> None:
@@ -591,7 +598,7 @@ def _factored_range(
             for y in range(bbox[k, 0], bbox[k, 1] + 1):
                 for x in range(bbox[k, 2], bbox[k, 3] + 1):
                     v = mask[k, y, x]
-                    b_tot += popcount64(v)
+                    b_tot += popcount64(v & vis[k, y, x])
                     b_com += popcount64(v & sil[k, y, x])
                 cum[y + 1, 0] = b_tot
                 cum[y + 1, 1] = b_com
@@ -615,7 +622,7 @@ def _factored_range(
                         for y in range(y0, y1 + 1):
                             for x in range(w0, w1 + 1):
                                 v = mask[k, y, x] | mask[sl, y, x] | mask[sr, y, x]
-                                tot += popcount64(v)
+                                tot += popcount64(v & vis[k, y, x])
                                 com += popcount64(v & sil[k, y, x])
                     out[m, a, b, k, 0] = com
                     out[m, a, b, k, 1] = sil_total[k] - com
@@ -640,6 +647,7 @@ def counts_factored_kernel(
     cams: np.ndarray,
     cam_hw: np.ndarray,
     sil: np.ndarray,
+    vis: np.ndarray,
     sil_total: np.ndarray,
     nchunks: int,
 ) -> np.ndarray:
@@ -668,6 +676,7 @@ def counts_factored_kernel(
             cams,
             cam_hw,
             sil,
+            vis,
             sil_total,
             out,
         )
