@@ -478,11 +478,19 @@ def track(
     bar,
     fits=None,
     settings: dict | None = None,
+    occluders=None,
 ):
     from tracker.pipeline import Tracker
 
     cfg = variant_config(filt, settings)
-    tr = Tracker(cams, cfg, rng=np.random.default_rng(seed), height_m=stature, backgrounds=bgs)
+    tr = Tracker(
+        cams,
+        cfg,
+        rng=np.random.default_rng(seed),
+        height_m=stature,
+        backgrounds=bgs,
+        occluders=occluders,
+    )
     from tracker.revision import ResultQueue
     from tracker.smoothing import RESTART_STATUSES, smooth_keypoints
 
@@ -881,7 +889,11 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
 - Bodies differ from the tracker's model: shape preset / clothing per recording (column
   "body"){"; every person dressed in one plain colour (--one-colour)" if args.one_colour else ""};
   a 90 degree turn in 16_18; occluders (`@table`, `@sofa`) stand between the first camera and
-  the walk.
+  the walk{
+        "; the tracker is given the furniture's masks (--occluder-masks)"
+        if args.occluder_masks
+        else " (the tracker is not told where)"
+    }.
 - Scored: the key points as `gaitwatch track` writes them: each track's first frames revised
   by the backward pass (the settings' `[revise]`: {revise_text}), smoothed over each continuous
   track (`tracker.smoothing`, the settings' `[smoothing]`: {smoothing_text}).
@@ -960,6 +972,12 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help="dress every person in one plain colour (top, trousers and shoes alike)",
     )
     ap.add_argument("--direct", action="store_true", help="track rendered frames (no video codec)")
+    ap.add_argument(
+        "--occluder-masks",
+        action="store_true",
+        help="give the tracker the furniture's masks (gaitwatch track --occluder), as an "
+        "installer would mark them",
+    )
     ap.add_argument("--data", type=Path, default=DATA, help="the shared recordings folder")
     ap.add_argument("--overlays", type=Path, help="write worst-frame overlays (PNG) here")
     ap.add_argument(
@@ -1029,6 +1047,11 @@ def main(argv: list[str] | None = None) -> int:
                 scene, args.direct, Path(tmpd) / f"s{si}"
             )
             body = f"{RECORDINGS[rec].shape}/{RECORDINGS[rec].clothing}"
+            occluders = None
+            if args.occluder_masks:
+                from gaitwatch.sim.synth import occluder_mask
+
+                occluders = [occluder_mask(scene, i) for i in range(len(cams))]
             bar.set_description(f"{rec} {view.label}: model fit to the truth")
             fits = fit_model_to_truth(scene.body.stature_m, truth, args.fit_step)
             fm = fit_metrics(scene.body.stature_m, fits, truth)
@@ -1047,6 +1070,7 @@ def main(argv: list[str] | None = None) -> int:
                     bar,
                     fits,
                     settings,
+                    occluders,
                 )
                 m = evaluate(
                     truth,

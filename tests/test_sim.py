@@ -227,6 +227,8 @@ def test_scene_files(scene_dir: Path) -> None:
         assert (c.width, c.height) == (320, 240)
         bg = cv2.imread(str(scene_dir / f"cam{i}-background.png"))
         assert bg.shape == (240, 320, 3)
+        # no furniture: no occluder mask
+        assert "occluder" not in cam and not (scene_dir / f"cam{i}-occluder.png").exists()
         frames = sorted((scene_dir / f"cam{i}").glob("*.png"))
         masks = sorted((scene_dir / f"cam{i}-masks").glob("*.png"))
         assert len(frames) == len(masks) == n
@@ -366,6 +368,30 @@ def test_occluder_hides_the_legs(short_walk: Trajectory) -> None:
     assert feet_free > 0.9 and head_free > 0.9
     assert feet_sofa < 0.5 * feet_free
     assert head_sofa > 0.9
+
+
+def test_occluder_mask_written_where_the_furniture_is(tmp_path: Path) -> None:
+    """With furniture, ``camI-occluder.png`` marks its pixels (for ``track --occluder``) and
+    the scene lists it; a scene written over it without furniture removes it."""
+    out = tmp_path / "table"
+    args = ["-q", "simulate", "walk:distance=2.0", "--out", str(out), "--views", "oblique"]
+    args += ["--size", "320x240", "--fps", "10", "--masks", "--png", "--occluder", "table"]
+    assert main([*args, "--seed", "4"]) == 0
+    meta = json.loads((out / "scene.json").read_text())
+    assert meta["cameras"][0]["occluder"] == "cam0-occluder.png"
+    occ = cv2.imread(str(out / "cam0-occluder.png"), cv2.IMREAD_GRAYSCALE)
+    assert occ.shape == (240, 320) and set(np.unique(occ)) == {0, 255}
+    assert 0.02 < (occ > 0).mean() < 0.6
+    bg = cv2.imread(str(out / "cam0-background.png"))
+    # the table is one flat colour in the background; the walls and floor around it are not
+    assert bg[occ > 0].std(axis=0).max() < bg[occ == 0].std(axis=0).max()
+    # the walk passes behind it: the person's pixels there are few (a hand over the top)
+    masks = [cv2.imread(str(m), cv2.IMREAD_GRAYSCALE) > 0 for m in (out / "cam0-masks").glob("*")]
+    on = sum(int((m & (occ > 0)).sum()) for m in masks)
+    assert on < 0.02 * sum(int(m.sum()) for m in masks)
+    # replaced by a scene without furniture: the old mask goes
+    assert main([*args[:-2], "--occluder", "none", "--seed", "4", "--force"]) == 0
+    assert not (out / "cam0-occluder.png").exists()
 
 
 # -- advice --------------------------------------------------------------------------------------

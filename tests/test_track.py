@@ -666,6 +666,42 @@ def test_background_size_must_match_camera(clip: dict, tmp_path: Path, capsys) -
     assert rc == 2 and "small.png" in err and "image_size" in err and "\n" not in err
 
 
+def test_occluder_masks_on_the_command_line(clip: dict, tmp_path: Path, capsys) -> None:
+    """``--occluder`` per camera ('none' for one without): a mask over the lower half of camera
+    0 changes the tracking there, is recorded in the log's settings; bad masks are refused."""
+    h, w = clip["bgs"][0].shape[:2]
+    mask = np.zeros((h, w), np.uint8)
+    mask[h // 2 :] = 255
+    mask_file = tmp_path / "table.png"
+    cv2.imwrite(str(mask_file), mask)
+    base = ["--seed", "5", "--max-frames", "4", "--particles", "729"]
+    plain, masked = tmp_path / "plain.mcap", tmp_path / "masked.mcap"
+    assert main(_args(clip, plain, *base)) == 0
+    rc = main(_args(clip, masked, *base, "--occluder", str(mask_file), "--occluder", "none"))
+    assert rc == 0, capsys.readouterr().err
+    a, b = read_poselog(plain), read_poselog(masked)
+    assert len(b) == 4 and b.metadata["settings"]["occluders"] == [str(mask_file), "none"]
+    assert a.metadata["settings"]["occluders"] == []
+    assert not np.array_equal(a.dofs, b.dofs)  # the legs in camera 0 count differently
+    # one per camera
+    rc = main(_args(clip, tmp_path / "x.mcap", *base, "--occluder", str(mask_file)))
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and "--occluder" in err and "one per camera" in err and "\n" not in err
+    # the frame's size
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), mask[::2, ::2])
+    rc = main(
+        _args(clip, tmp_path / "y.mcap", *base, "--occluder", str(small), "--occluder", "none")
+    )
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and "small.png" in err and "image_size" in err
+    # not an image
+    rc = main(_args(clip, tmp_path / "z.mcap", "--occluder", "nope.png", "--occluder", "none"))
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and "nope.png" in err and "\n" not in err
+    assert not (tmp_path / "z.mcap").exists()
+
+
 def test_video_count_must_match_cameras(clip: dict, tmp_path: Path, capsys) -> None:
     rc = main(_args(clip, tmp_path / "p.mcap", folders=clip["folders"][:1], bgs=False))
     assert rc == 2 and "one per camera" in capsys.readouterr().err

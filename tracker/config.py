@@ -678,6 +678,57 @@ class RefineConfig(_Model):
         return _check_dof_keys(v, "range_overrides")
 
 
+class OcclusionConfig(_Model):
+    """Furniture in front of the walk, learned from the silhouettes (:mod:`tracker.occlusion`):
+    regions of the empty scene's image that the silhouette's lower ends lie on, frame after
+    frame, and that it does not enter. Model pixels there count neither for nor against a pose.
+    Needs the background image; masks given to the tracker are used whatever this says.
+    """
+
+    learn: Annotated[
+        bool, Field(description="Learn occluders from the silhouettes and the background")
+    ] = True
+    lower_fraction: Annotated[
+        float,
+        Field(gt=0, le=1, description="Lower ends counted in this lower part of the silhouette"),
+    ] = 0.4
+    min_ends_px: Annotated[
+        int, Field(ge=1, description="Lower ends on a region for a frame to support it")
+    ] = 4
+    min_share: Annotated[
+        float,
+        Field(gt=0, le=1, description="Share of the frame's lower ends on the region"),
+    ] = 0.5
+    min_frames: Annotated[
+        int, Field(ge=1, le=10000, description="Supporting frames before a region occludes")
+    ] = 4
+    max_entered: Annotated[
+        float,
+        Field(
+            ge=0,
+            description="Silhouette pixels inside the region, over the track, at most this "
+            "times the lower ends that lay on it",
+        ),
+    ] = 0.25
+    min_region_px: Annotated[
+        int,
+        Field(
+            ge=1,
+            description="Smallest occluder region, likelihood pixels (0.5 % of 160x120: what "
+            "hides a leg is bigger than a leg)",
+        ),
+    ] = 100
+    min_depth: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="Mean run of the region below the lower ends that lie on it, at least "
+            "this fraction of the image height (a floorboard is thin, a table top is not)",
+        ),
+    ] = 0.04
+
+
 class AppearanceConfig(_Model):
     """The colour cue (:mod:`tracker.appearance`): per-part reference colours learned online
     from the person; the silhouette weight is multiplied by ``(score / typical) ** beta``."""
@@ -836,6 +887,7 @@ class TrackerConfig(_Model):
     leg_swap: LegSwapConfig = Field(default_factory=LegSwapConfig)
     refine: RefineConfig = Field(default_factory=RefineConfig)
     appearance: AppearanceConfig = Field(default_factory=AppearanceConfig)
+    occlusion: OcclusionConfig = Field(default_factory=OcclusionConfig)
     limits_profile: Annotated[str, Field(description="tracker.dof limit profile")] = "walking"
     limits_overrides_deg: dict[str, tuple[float, float]] = {}
     reference_dt_s: Annotated[float, Field(gt=0, le=1)] = 0.05

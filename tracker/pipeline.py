@@ -54,9 +54,10 @@ from tracker.config import TrackerConfig
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, wrap_angle
 from tracker.filters import Filter, make_filter, select_distinct
 from tracker.init import body_configurations, floor_point, initial_search
+from tracker.occlusion import OcclusionLearner, background_regions
 from tracker.origin import search_origin
 from tracker.raster import numba_threads, prefer_passive_openmp
-from tracker.segmentation import Segmentation, Segmenter, keep_blobs
+from tracker.segmentation import Segmentation, Segmenter, downscale_mask, keep_blobs
 from tracker.smoothing import RESTART_STATUSES
 
 log = logging.getLogger(__name__)
@@ -248,6 +249,11 @@ class Tracker:
     backgrounds : sequence of ndarray or None, optional
         Empty-scene images per camera (uint8 BGR). Without them, static segmentation falls back
         to the adaptive ``mog2`` mode learned from the footage.
+    occluders : sequence of ndarray or None, optional
+        Per camera, the image pixels behind static furniture that can hide the person (bool or
+        uint8, non-zero = occluder; any resolution with the camera's aspect ratio, usually the
+        frame's), or None. Model pixels there count neither for nor against a pose, in the
+        silhouette weight and the colour cue (docs/tracker.md, "Known occluders").
     body : tracker.body.BodyModel, optional
     likelihood : optional
         A likelihood over ``cameras`` scaled to ``config.likelihood_size`` (default:
@@ -263,6 +269,7 @@ class Tracker:
         rng: np.random.Generator,
         height_m: float = 1.70,
         backgrounds: Sequence[np.ndarray | None] | None = None,
+        occluders: Sequence[np.ndarray | None] | None = None,
         body=None,
         likelihood=None,
     ) -> None:
@@ -306,6 +313,11 @@ class Tracker:
                 [cam.scaled(*c.appearance.size) for cam in self.cameras], c.appearance
             )
             likelihood.appearance = self.colour
+        #: Per camera, the occluders given (likelihood resolution) and those learned.
+        self._given_occ: list[np.ndarray | None] = [None] * len(self.cameras)
+        self.occlusion: list[OcclusionLearner | None] = [None] * len(self.cameras)
+        if occluders is not None:
+            self.set_occluders(occluders)
         self.limits = c.joint_limits().arrays()
         self.rng = rng
         self.filter: Filter = make_filter(c.filter, c, rng=rng, limits=self.limits)
@@ -321,6 +333,13 @@ class Tracker:
             self.segmenters.append(Segmenter(sc, bg))
         if any(bg is None for bg in bgs) and seg_cfg.mode == "static":
             log.info("no background image for some cameras: learning the background (mog2)")
+        if c.occlusion.learn:
+            self.occlusion = [
+                None
+                if bg is None
+                else OcclusionLearner(background_regions(bg, (w, h)), c.occlusion)
+                for bg in bgs
+            ]
         self.dt_default = 1.0 / float(self.cameras[0].fps)
         import numba
 
@@ -411,6 +430,62 @@ class Tracker:
         or None: results of frames before it are final."""
         return self._window[0][0].frame_index if self._window else None
 
+    def set_occluders(self, occluders: Sequence[np.ndarray | None] | None) -> None:
+        """Pixels behind known static occluders, per camera (see the class docstring); None
+        clears them. Takes effect from the next frame."""
+        if occluders is None:
+            small = None
+        else:
+            occ = list(occluders)
+            if len(occ) != len(self.cameras):
+                raise ValueError(f"{len(occ)} occluder masks for {len(self.cameras)} cameras")
+            small = []
+            for cam, lcam, o in zip(self.cameras, self.lik_cameras, occ, strict=True):
+                if o is None:
+                    small.append(None)
+                    continue
+                o = np.asarray(o)
+                if o.ndim != 2:
+                    raise ValueError(
+                        f"occluder mask for camera {cam.name!r} must be one channel (H, W), "
+                        f"got shape {o.shape}"
+                    )
+                h, w = o.shape
+                if abs(w * cam.height - h * cam.width) > max(w, h):
+                    raise ValueError(
+                        f"occluder mask for camera {cam.name!r} is {w}x{h}, not the camera's "
+                        f"aspect ratio ({cam.width}x{cam.height})"
+                    )
+                small.append(downscale_mask(o != 0, (lcam.width, lcam.height)))
+        if not hasattr(self.likelihood, "set_occlusion"):
+            raise ValueError("this likelihood does not take occluders (no set_occlusion)")
+        self._given_occ = small or [None] * len(self.cameras)
+        self._apply_occlusion()
+
+    def _apply_occlusion(self) -> None:
+        """Hand the occluded pixels (given | learned) to the likelihood and the colour cue."""
+        maps: list[np.ndarray | None] = []
+        for given, learner in zip(self._given_occ, self.occlusion, strict=True):
+            learned = None if learner is None or not learner.occluders.any() else learner.mask
+            if given is None or learned is None:
+                maps.append(given if learned is None else learned)
+            else:
+                maps.append(given | learned)
+        self.likelihood.set_occlusion(maps)
+        if self.colour is not None:
+            self.colour.set_occlusion(maps)
+
+    def _learn_occluders(self, masks: Sequence[np.ndarray], notes: list[str]) -> None:
+        """Add this frame's silhouettes to the occluder evidence (config.occlusion)."""
+        changed = False
+        for learner, m in zip(self.occlusion, masks, strict=True):
+            if learner is not None:
+                changed |= learner.update(m)
+        if changed:
+            self._apply_occlusion()
+            px = [0 if o is None else int(o.mask.sum()) for o in self.occlusion]
+            notes.append("occluders learned: " + ", ".join(f"{p} px" for p in px) + " per camera")
+
     def _process(
         self,
         frame_index: int,
@@ -432,6 +507,8 @@ class Tracker:
             else:
                 same = tuple(self.config.appearance.size) == tuple(self.config.likelihood_size)
                 self.colour.set_frame(frames, masks if same else [s.mask_full for s in segs])
+        if any(o is not None for o in self.occlusion):
+            self._learn_occluders(masks, notes)
         obs = _Observation(int(frame_index), float(time_s), masks)
         res = self._estimate(obs, notes)
         self._last_obs = obs

@@ -31,7 +31,14 @@ from gaitwatch.sim.motion import (
 )
 from gaitwatch.sim.person import BodyModel, Mesh
 from gaitwatch.sim.render import LABEL_FLOOR, LABEL_PERSON, LightRig, draw_person, shadow_coverage
-from gaitwatch.sim.room import Backdrop, Box, RoomScene, furniture, render_backdrop
+from gaitwatch.sim.room import (
+    LABEL_FURNITURE,
+    Backdrop,
+    Box,
+    RoomScene,
+    furniture,
+    render_backdrop,
+)
 from gaitwatch.sim.scene import ResolvedBody, SceneConfig, resolve_body
 from gaitwatch.trajectory import Trajectory
 from tracker.camera import Camera
@@ -348,6 +355,13 @@ def render_background(scene: Scene, cam_index: int) -> np.ndarray:
     rng = np.random.default_rng(_child(scene, 100 + cam_index))
     img, _ = compose(scene, cam_index, 0, None)
     return _finish(scene, img, float(scene.gain[0]), rng)
+
+
+def occluder_mask(scene: Scene, cam_index: int) -> np.ndarray | None:
+    """The furniture's pixels in one camera (bool (H, W)), what an installer would mark for
+    ``gaitwatch track --occluder``; None when the room has no furniture in view."""
+    mask = scene.backdrops[cam_index].labels == LABEL_FURNITURE
+    return mask if mask.any() else None
 
 
 def _child(scene: Scene, key: int) -> np.random.SeedSequence:

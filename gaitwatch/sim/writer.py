@@ -5,6 +5,7 @@ Layout (``N`` cameras, ``i`` = 0 .. N-1)::
     camI.mp4               the video (OpenCV mp4v), or camI/000000.png ... with video_format=png
     camI.yaml              the camera file (CONVENTIONS format)
     camI-background.png    the empty scene at frame 0's lighting (its own sensor noise)
+    camI-occluder.png      the furniture's pixels (255), when furniture is in view
     camI-masks/000000.png  the person's silhouette per frame (255 = person), with masks=True
     JOINTS.csv             ground truth at the video rate (CONVENTIONS format)
     scene.json             settings, seed, source motion, resolved body, room, light per frame
@@ -23,7 +24,7 @@ from tqdm import tqdm
 
 from gaitwatch import __version__
 from gaitwatch.errors import InputError
-from gaitwatch.sim.synth import Scene, render_background, render_frames
+from gaitwatch.sim.synth import Scene, occluder_mask, render_background, render_frames
 from gaitwatch.trajectory import write_joints_csv
 from tracker.camera import save_camera
 
@@ -42,6 +43,8 @@ class SceneFiles:
     videos: list[Path] = field(default_factory=list)
     cameras: list[Path] = field(default_factory=list)
     backgrounds: list[Path] = field(default_factory=list)
+    #: Per camera, the occluder mask written, or None (no furniture in view).
+    occluders: list[Path | None] = field(default_factory=list)
     masks: list[Path] = field(default_factory=list)
     joints: Path | None = None
     scene_json: Path | None = None
@@ -62,6 +65,8 @@ def scene_metadata(scene: Scene, files: SceneFiles | None = None) -> dict:
             )
             if files.masks:
                 entry["masks"] = files.masks[i].name
+            if files.occluders and files.occluders[i] is not None:
+                entry["occluder"] = files.occluders[i].name
         cams.append(entry)
     return {
         "generator": f"gaitwatch simulate {__version__}",
@@ -118,6 +123,14 @@ def write_scene(
         bg_path = out / f"cam{i}-background.png"
         cv2.imwrite(str(bg_path), render_background(scene, i)[..., ::-1])
         files.backgrounds.append(bg_path)
+        occ = occluder_mask(scene, i)
+        occ_path = out / f"cam{i}-occluder.png"
+        if occ is not None:
+            cv2.imwrite(str(occ_path), occ.astype(np.uint8) * 255)
+            files.occluders.append(occ_path)
+        else:
+            occ_path.unlink(missing_ok=True)  # a replaced scene's
+            files.occluders.append(None)
         if cfg.video_format == "mp4":
             vp = out / f"cam{i}.mp4"
             vw = cv2.VideoWriter(str(vp), cv2.VideoWriter_fourcc(*"mp4v"), cfg.fps, (w, h))

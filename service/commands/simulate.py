@@ -29,9 +29,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         description=(
             "Render a motion (a mocap file, a JOINTS.csv, or 'walk[:speed=..,cadence=..,"
             "height=..,distance=..]' for a procedural walk) through cameras in a textured room. "
-            "Writes camI.mp4, camI.yaml, camI-background.png, JOINTS.csv and scene.json into "
-            "--out. With --advise and --camera: report where on the floor the camera can measure "
-            "gait."
+            "Writes camI.mp4, camI.yaml, camI-background.png (camI-occluder.png with furniture "
+            "in view), JOINTS.csv and scene.json into --out. With --advise and --camera: report "
+            "where on the floor the camera can measure gait."
         ),
     )
     p.add_argument("motion", nargs="?", default="walk", help="motion source (default: walk)")

@@ -5,7 +5,8 @@
     gaitwatch track VIDEO [VIDEO ...] --camera CAM.yaml [--camera CAM.yaml ...]
                     [--height METRES] [--background IMAGE ...] [--filter ipf|apf|condensation]
                     [--seed N] --out POSES.mcap
-                    [--config TRACKER.toml|yaml] [--particles N] [--max-frames N]
+                    [--occluder MASK|none ...] [--config TRACKER.toml|yaml]
+                    [--particles N] [--max-frames N]
                     [--segmentation static|mog2|knn] [--threads N] [--allow-length-mismatch]
                     [--no-smoothing] [--no-revise]
 
@@ -24,6 +25,12 @@ finalised even when tracking stops on an error (a corrupt frame, videos of diffe
 the poses written so far stay readable; the error is then reported on one line and the exit code
 is non-zero. Every random draw comes from one generator seeded by ``--seed``: the same seed gives
 the same poses.
+
+``--occluder`` gives, per camera, an image of the frame's size whose non-zero (white) pixels are
+furniture that can stand between the camera and the person (a table, a sofa's back); ``none``
+for a camera without. The tracker then neither rewards nor penalises the model there: without
+it, legs hidden behind a table pull the estimate out of shape and off in depth. ``gaitwatch
+simulate`` writes such masks for its furniture (docs/tracker.md, "Known occluders").
 """
 
 from __future__ import annotations
@@ -68,6 +75,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="append",
         metavar="IMAGE",
         help="image of the empty scene per camera (repeat); without: learned from the footage",
+    )
+    p.add_argument(
+        "--occluder",
+        action="append",
+        metavar="MASK",
+        help="per camera (repeat): image whose non-zero pixels are furniture in front of the "
+        "walking area, or 'none'",
     )
     p.add_argument("--filter", choices=FILTER_NAMES, help="body-part filter (default ipf)")
     p.add_argument("--seed", type=int, default=0, help="random seed (0)")
@@ -166,6 +180,21 @@ def run(args: argparse.Namespace) -> int:
             img = read_image(path)
             check_image_size(cam, img.shape[1], img.shape[0], what=f"background {path}")
             backgrounds.append(img)
+    occluders = None
+    if args.occluder:
+        if len(args.occluder) != len(cameras):
+            raise TrackArgumentError(
+                f"{len(args.occluder)} --occluder mask(s) for {len(cameras)} camera(s): give one "
+                "per camera ('none' for a camera without)"
+            )
+        occluders = []
+        for cam, path in zip(cameras, args.occluder, strict=True):
+            if path.lower() == "none":
+                occluders.append(None)
+                continue
+            img = read_image(path)
+            check_image_size(cam, img.shape[1], img.shape[0], what=f"occluder mask {path}")
+            occluders.append(img.max(axis=2) > 0)
     config = build_config(args)
     if backgrounds is None and config.segmentation.mode == "static":
         # No image of the empty scene: learn the background from the footage.
@@ -185,7 +214,14 @@ def run(args: argparse.Namespace) -> int:
     )
     rng = np.random.default_rng(args.seed)
     try:
-        tracker = Tracker(cameras, config, rng=rng, height_m=args.height, backgrounds=backgrounds)
+        tracker = Tracker(
+            cameras,
+            config,
+            rng=rng,
+            height_m=args.height,
+            backgrounds=backgrounds,
+            occluders=occluders,
+        )
     except BaseException:
         videos.close()
         raise
@@ -194,6 +230,7 @@ def run(args: argparse.Namespace) -> int:
         "seed": args.seed,
         "videos": [str(v) for v in args.videos],
         "backgrounds": list(args.background or []),
+        "occluders": list(args.occluder or []),
     }
     total = videos.frame_count
     if args.max_frames is not None:
