@@ -107,6 +107,7 @@ class SilhouetteLikelihood:
         self._words = int((self.cam_hw[:, 1].max() + 63) // 64)
         self._sil: np.ndarray | None = None
         self._vis: np.ndarray | None = None
+        self._vis_on = np.zeros(k, dtype=np.bool_)
         self._sil_total = np.zeros(k, dtype=np.int64)
         #: Per camera, bool (H, W) pixels behind a known static occluder, or None.
         self._occluded: list[np.ndarray | None] = [None] * k
@@ -141,6 +142,7 @@ class SilhouetteLikelihood:
                 vis[i, : cam.height] = raster.pack_rows(~occ | s, self._words)
         self._sil = sil
         self._vis = vis
+        self._vis_on = np.array([o is not None for o in self._occluded], dtype=np.bool_)
         self._sil_total = total
 
     def set_occlusion(self, occluded: Sequence[np.ndarray | None] | None) -> None:
@@ -203,6 +205,7 @@ class SilhouetteLikelihood:
             self.cam_hw,
             sil,
             self._vis,
+            self._vis_on,
             self._sil_total,
             4 * nb.get_num_threads(),
         )
@@ -262,6 +265,7 @@ class SilhouetteLikelihood:
             self.cam_hw,
             sil,
             self._vis,
+            self._vis_on,
             self._sil_total,
             4 * nb.get_num_threads(),
         )

@@ -435,17 +435,25 @@ def render_capsules(
 
 @nb.njit(cache=True, inline="always")
 def _count_clear(
-    mask: np.ndarray, slot: int, sil: np.ndarray, vis: np.ndarray, k: int, bbox: np.ndarray
+    mask: np.ndarray,
+    slot: int,
+    sil: np.ndarray,
+    vis: np.ndarray,
+    vis_on: np.ndarray,
+    k: int,
+    bbox: np.ndarray,
 ) -> tuple[int, int]:
     """(counted model pixels, common pixels) of mask[slot] against sil[k] within bbox[slot];
-    clears. Model pixels count where ``vis[k]`` is set (not behind a known occluder)."""
+    clears. Model pixels count where ``vis[k]`` is set (not behind a known occluder) when
+    ``vis_on[k]``, everywhere otherwise."""
     tot = 0
     com = 0
+    use = vis_on[k]
     for y in range(bbox[slot, 0], bbox[slot, 1] + 1):
         for w in range(bbox[slot, 2], bbox[slot, 3] + 1):
             m = mask[slot, y, w]
             if m:
-                tot += popcount64(m & vis[k, y, w])
+                tot += popcount64(m & vis[k, y, w]) if use else popcount64(m)
                 com += popcount64(m & sil[k, y, w])
                 mask[slot, y, w] = 0
     return tot, com
@@ -462,6 +470,7 @@ def _counts_range(
     cam_hw: np.ndarray,
     sil: np.ndarray,
     vis: np.ndarray,
+    vis_on: np.ndarray,
     sil_total: np.ndarray,
     out: np.ndarray,
 ) -> None:
@@ -475,7 +484,7 @@ def _counts_range(
             render_capsules(
                 pts, i, sel, cap_ab, radii, cams, k, cam_hw[k, 0], cam_hw[k, 1], mask, 0, bbox
             )
-            tot, com = _count_clear(mask, 0, sil, vis, k, bbox)
+            tot, com = _count_clear(mask, 0, sil, vis, vis_on, k, bbox)
             out[i, k, 0] = com
             out[i, k, 1] = sil_total[k] - com
             out[i, k, 2] = tot - com
@@ -490,6 +499,7 @@ def counts_kernel(
     cam_hw: np.ndarray,
     sil: np.ndarray,
     vis: np.ndarray,
+    vis_on: np.ndarray,
     sil_total: np.ndarray,
     nchunks: int,
 ) -> np.ndarray:
@@ -502,7 +512,8 @@ def counts_kernel(
     cams : (K, 32) packed cameras; cam_hw : (K, 2) int64 image height and width.
     sil : (K, H, W64) uint64 bit-packed silhouettes; sil_total : (K,) their pixel counts.
     vis : (K, H, W64) uint64 bit-packed pixels where model pixels count (Nm): all set but
-    behind a known occluder, silhouette pixels always set (so Nc <= the counted model pixels).
+    behind a known occluder, silhouette pixels always set (so Nc <= the counted model pixels);
+    vis_on : (K,) bool, False: camera k has no occluder (``vis[k]`` is not read).
     nchunks : work units (a multiple of the thread count) that share the batch.
     """
     n = pts.shape[0]
@@ -519,6 +530,7 @@ def counts_kernel(
             cam_hw,
             sil,
             vis,
+            vis_on,
             sil_total,
             out,
         )
@@ -541,6 +553,7 @@ def _factored_range(
     cam_hw: np.ndarray,
     sil: np.ndarray,
     vis: np.ndarray,
+    vis_on: np.ndarray,
     sil_total: np.ndarray,
     out: np.ndarray,
 ) -> None:
@@ -595,10 +608,11 @@ def _factored_range(
             if bbox[k, 0] <= bbox[k, 1]:
                 cum[bbox[k, 0], 0] = 0
                 cum[bbox[k, 0], 1] = 0
+            use = vis_on[k]
             for y in range(bbox[k, 0], bbox[k, 1] + 1):
                 for x in range(bbox[k, 2], bbox[k, 3] + 1):
                     v = mask[k, y, x]
-                    b_tot += popcount64(v & vis[k, y, x])
+                    b_tot += popcount64(v & vis[k, y, x]) if use else popcount64(v)
                     b_com += popcount64(v & sil[k, y, x])
                 cum[y + 1, 0] = b_tot
                 cum[y + 1, 1] = b_com
@@ -619,11 +633,18 @@ def _factored_range(
                             com -= cum[yb, 1] - cum[ya, 1]
                         w0 = min(bbox[k, 2], bbox[sl, 2], bbox[sr, 2])
                         w1 = max(bbox[k, 3], bbox[sl, 3], bbox[sr, 3])
-                        for y in range(y0, y1 + 1):
-                            for x in range(w0, w1 + 1):
-                                v = mask[k, y, x] | mask[sl, y, x] | mask[sr, y, x]
-                                tot += popcount64(v & vis[k, y, x])
-                                com += popcount64(v & sil[k, y, x])
+                        if use:
+                            for y in range(y0, y1 + 1):
+                                for x in range(w0, w1 + 1):
+                                    v = mask[k, y, x] | mask[sl, y, x] | mask[sr, y, x]
+                                    tot += popcount64(v & vis[k, y, x])
+                                    com += popcount64(v & sil[k, y, x])
+                        else:
+                            for y in range(y0, y1 + 1):
+                                for x in range(w0, w1 + 1):
+                                    v = mask[k, y, x] | mask[sl, y, x] | mask[sr, y, x]
+                                    tot += popcount64(v)
+                                    com += popcount64(v & sil[k, y, x])
                     out[m, a, b, k, 0] = com
                     out[m, a, b, k, 1] = sil_total[k] - com
                     out[m, a, b, k, 2] = tot - com
@@ -648,6 +669,7 @@ def counts_factored_kernel(
     cam_hw: np.ndarray,
     sil: np.ndarray,
     vis: np.ndarray,
+    vis_on: np.ndarray,
     sil_total: np.ndarray,
     nchunks: int,
 ) -> np.ndarray:
@@ -677,6 +699,7 @@ def counts_factored_kernel(
             cam_hw,
             sil,
             vis,
+            vis_on,
             sil_total,
             out,
         )
