@@ -96,3 +96,40 @@ def test_feet_on_the_floor_make_no_occluder(labels: np.ndarray) -> None:
     assert not learner.update(np.zeros((H, W), bool))
     with pytest.raises(ValueError, match="must match"):
         learner.update(np.zeros((10, 10), bool))
+
+
+def test_opt_in_floor_test_counts_only_ends_above_the_floor() -> None:
+    """With ``floor_margin_m``, the camera and the stature: a silhouette ending on the floor where
+    the person stands gives no evidence; one cut above the floor by a table top does."""
+    from tracker.camera import Camera
+
+    cam = Camera.look_at(
+        name="corner", position=[0.0, 0.0, 2.4], target=[4.0, 0.0, 0.6], image_size=(W, H)
+    )
+    stature = 1.70
+    # the regions: everything one region but a flat "table top" band across the image
+    person_at = np.array([4.0, 0.0])
+    head = cam.project(np.array([*person_at, stature]))
+    feet = cam.project(np.array([*person_at, 0.0]))
+    cut = cam.project(np.array([3.6, 0.0, 0.75]))  # the far edge of a table 0.4 m in front
+    top, bottom, cut_row = int(round(head[1])), int(round(feet[1])), int(round(cut[1]))
+    assert top < cut_row < bottom - 5
+    labels = np.ones((H, W), np.int32)
+    labels[cut_row + 1 : cut_row + 20] = 2  # the table top, below the cut
+    labels[bottom + 1 : bottom + 20] = 3  # floor in front of the feet
+    cfg = OcclusionConfig(floor_margin_m=0.25, min_region_px=10, min_depth=0.0)
+    x0 = int(round(head[0])) - 5
+    on_floor = OcclusionLearner(labels, cfg, cam, stature)
+    for _ in range(6):
+        on_floor.update(_person(x0, top, bottom))
+    assert not on_floor.support.any()  # the soles stand on the floor
+    plain = OcclusionLearner(labels, OcclusionConfig(min_region_px=10, min_depth=0.0))
+    for _ in range(6):
+        plain.update(_person(x0, top, bottom))
+    assert plain.support[3] == 6  # without the test the floor region in front gathers support
+    cut_off = OcclusionLearner(labels, cfg, cam, stature)
+    for _ in range(6):
+        cut_off.update(_person(x0, top, cut_row))
+    assert cut_off.occluders[2] and not cut_off.occluders[3]
+    with pytest.raises(ValueError, match="regions"):
+        OcclusionLearner(labels[:, :100], cfg, cam, stature)

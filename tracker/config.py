@@ -697,8 +697,21 @@ class OcclusionConfig(_Model):
     ] = 4
     min_share: Annotated[
         float,
-        Field(gt=0, le=1, description="Share of the frame's lower ends on the region"),
+        Field(
+            ge=0,
+            le=1,
+            description="Share of the frame's counted lower ends on the region (0: any share)",
+        ),
     ] = 0.5
+    floor_margin_m: Annotated[
+        float | None,
+        Field(
+            ge=0,
+            description="Opt-in: a lower end counts only where its ray meets the floor this far "
+            "beyond the person (the silhouette's top at the stature's height), so it does not "
+            "end on the floor; None: every lower end counts",
+        ),
+    ] = None
     min_frames: Annotated[
         int, Field(ge=1, le=10000, description="Supporting frames before a region occludes")
     ] = 4

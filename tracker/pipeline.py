@@ -337,8 +337,10 @@ class Tracker:
             self.occlusion = [
                 None
                 if bg is None
-                else OcclusionLearner(background_regions(bg, (w, h)), c.occlusion)
-                for bg in bgs
+                else OcclusionLearner(
+                    background_regions(bg, (w, h)), c.occlusion, lcam, self.body.height_m
+                )
+                for bg, lcam in zip(bgs, self.lik_cameras, strict=True)
             ]
         self.dt_default = 1.0 / float(self.cameras[0].fps)
         import numba
