@@ -34,27 +34,35 @@ def table_scene() -> dict:
     }
 
 
-def _errors(table_scene: dict, occluders) -> np.ndarray:
-    """Mean joint error (m) per frame, final (revised) results."""
+def _track(scene, frames, bgs, config: TrackerConfig, occluders=None):
+    """The tracker (after the clip) and the mean joint error (m) of each final result."""
     from tracker.pipeline import Tracker
     from tracker.revision import ResultQueue
 
-    sc = table_scene["scene"]
     tr = Tracker(
-        sc.cameras,
-        TrackerConfig(occlusion={"learn": False}),  # the given mask alone
+        scene.cameras,
+        config,
         rng=np.random.default_rng(0),
-        height_m=sc.body.stature_m,
-        backgrounds=table_scene["bgs"],
+        height_m=scene.body.stature_m,
+        backgrounds=bgs,
         occluders=occluders,
     )
     queue, out = ResultQueue(), []
-    for i, f in enumerate(table_scene["frames"]):
+    for i, f in enumerate(frames):
         out += queue.push(tr.process(i, i / 20.0, f), tr.pending_from)
     out += queue.flush()
-    truth = sc.truth.positions
     assert all(r.has_pose for r in out)
-    return np.array([np.linalg.norm(r.joints - truth[r.frame_index], axis=1).mean() for r in out])
+    truth = scene.truth.positions
+    return tr, np.array(
+        [np.linalg.norm(r.joints - truth[r.frame_index], axis=1).mean() for r in out]
+    )
+
+
+def _errors(table_scene: dict, occluders) -> np.ndarray:
+    """Mean joint error (m) per frame with the given mask alone (no learning)."""
+    cfg = TrackerConfig(occlusion={"learn": False})
+    sc = table_scene
+    return _track(sc["scene"], sc["frames"], sc["bgs"], cfg, occluders)[1]
 
 
 def test_table_mask_keeps_the_track_behind_the_table(table_scene: dict) -> None:
@@ -117,8 +125,6 @@ def test_sofa_learned_from_the_silhouettes(shared_data) -> None:
     from gaitwatch.sim.scene import BodyShape, Clothing, Room, SceneConfig
     from gaitwatch.sim.synth import build_scene, occluder_mask, render_background, render_frames
     from tests.conftest import shared_file
-    from tracker.pipeline import Tracker
-    from tracker.revision import ResultQueue
 
     motion = load_mocap(shared_file(shared_data, "c3d/newwalk.c3d"))
     cfg = SceneConfig(
@@ -134,21 +140,9 @@ def test_sofa_learned_from_the_silhouettes(shared_data) -> None:
     sc = build_scene(motion, cfg)
     bgs = [np.ascontiguousarray(render_background(sc, 0)[..., ::-1])]
     frames = [[np.ascontiguousarray(i[..., ::-1]) for i in ims] for _, ims, _ in render_frames(sc)]
-    truth = sc.truth.positions
     late = {}
     for learn in (False, True):
-        tr = Tracker(
-            sc.cameras,
-            TrackerConfig(occlusion={"learn": learn}),
-            rng=np.random.default_rng(0),
-            height_m=sc.body.stature_m,
-            backgrounds=bgs,
-        )
-        queue, out = ResultQueue(), []
-        for i, f in enumerate(frames):
-            out += queue.push(tr.process(i, i / 20.0, f), tr.pending_from)
-        out += queue.flush()
-        err = [np.linalg.norm(r.joints - truth[r.frame_index], axis=1).mean() for r in out]
+        tr, err = _track(sc, frames, bgs, TrackerConfig(occlusion={"learn": learn}))
         late[learn] = float(np.mean(err[-len(err) // 3 :]))
     print(f"last third: {1000 * late[False]:.0f} mm without learning, {1000 * late[True]:.0f} with")
     assert late[True] < 0.7 * late[False]

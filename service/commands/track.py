@@ -122,6 +122,33 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def _per_camera_images(
+    paths: list[str] | None, cameras: list, option: str, what: str, allow_none: bool = False
+) -> list[np.ndarray | None] | None:
+    """One image per camera from a repeated option (None when it was not given), each checked
+    against its camera's image size; with ``allow_none`` the word ``none`` stands for no image."""
+    from service.video import read_image
+    from tracker.camera import check_image_size
+
+    if not paths:
+        return None
+    if len(paths) != len(cameras):
+        hint = " ('none' for a camera without)" if allow_none else ""
+        raise TrackArgumentError(
+            f"{len(paths)} {option} image(s) for {len(cameras)} camera(s): give one per "
+            f"camera{hint}"
+        )
+    images: list[np.ndarray | None] = []
+    for cam, path in zip(cameras, paths, strict=True):
+        if allow_none and path.lower() == "none":
+            images.append(None)
+            continue
+        img = read_image(path)
+        check_image_size(cam, img.shape[1], img.shape[0], what=f"{what} {path}")
+        images.append(img)
+    return images
+
+
 def build_config(args: argparse.Namespace) -> TrackerConfig:
     """The tracker configuration from ``--config`` and the command-line overrides."""
     config = load_tracker_config(args.config) if args.config else TrackerConfig()
@@ -153,8 +180,8 @@ def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from service.poselog import PoseLogWriter
-    from service.video import open_videos, read_image
-    from tracker.camera import check_image_size, load_cameras
+    from service.video import open_videos
+    from tracker.camera import load_cameras
     from tracker.pipeline import Tracker
     from tracker.revision import ResultQueue
     from tracker.smoothing import RESTART_STATUSES, KeypointSmoother
@@ -168,33 +195,9 @@ def run(args: argparse.Namespace) -> int:
         raise TrackArgumentError(
             f"{len(args.videos)} video(s) for {len(cameras)} --camera file(s): give one per camera"
         )
-    backgrounds = None
-    if args.background:
-        if len(args.background) != len(cameras):
-            raise TrackArgumentError(
-                f"{len(args.background)} --background image(s) for {len(cameras)} camera(s): "
-                "give one per camera"
-            )
-        backgrounds = []
-        for cam, path in zip(cameras, args.background, strict=True):
-            img = read_image(path)
-            check_image_size(cam, img.shape[1], img.shape[0], what=f"background {path}")
-            backgrounds.append(img)
-    occluders = None
-    if args.occluder:
-        if len(args.occluder) != len(cameras):
-            raise TrackArgumentError(
-                f"{len(args.occluder)} --occluder mask(s) for {len(cameras)} camera(s): give one "
-                "per camera ('none' for a camera without)"
-            )
-        occluders = []
-        for cam, path in zip(cameras, args.occluder, strict=True):
-            if path.lower() == "none":
-                occluders.append(None)
-                continue
-            img = read_image(path)
-            check_image_size(cam, img.shape[1], img.shape[0], what=f"occluder mask {path}")
-            occluders.append(img.max(axis=2) > 0)
+    backgrounds = _per_camera_images(args.background, cameras, "--background", "background")
+    masks = _per_camera_images(args.occluder, cameras, "--occluder", "occluder mask", True)
+    occluders = None if masks is None else [None if m is None else m.max(axis=2) > 0 for m in masks]
     config = build_config(args)
     if backgrounds is None and config.segmentation.mode == "static":
         # No image of the empty scene: learn the background from the footage.
