@@ -98,38 +98,48 @@ def test_feet_on_the_floor_make_no_occluder(labels: np.ndarray) -> None:
         learner.update(np.zeros((10, 10), bool))
 
 
-def test_opt_in_floor_test_counts_only_ends_above_the_floor() -> None:
-    """With ``floor_margin_m``, the camera and the stature: a silhouette ending on the floor where
-    the person stands gives no evidence; one cut above the floor by a table top does."""
+def test_ends_above_the_floor_support_a_region_on_their_own() -> None:
+    """With the camera and the stature, lower ends that lie above the floor (a silhouette cut by
+    a table top) support the region they end on even when other lower ends (hands, the crotch)
+    outnumber them; a silhouette ending on the floor gains nothing from it."""
     from tracker.camera import Camera
 
     cam = Camera.look_at(
         name="corner", position=[0.0, 0.0, 2.4], target=[4.0, 0.0, 0.6], image_size=(W, H)
     )
     stature = 1.70
-    # the regions: everything one region but a flat "table top" band across the image
-    person_at = np.array([4.0, 0.0])
-    head = cam.project(np.array([*person_at, stature]))
-    feet = cam.project(np.array([*person_at, 0.0]))
+    head = cam.project(np.array([4.0, 0.0, stature]))
+    feet = cam.project(np.array([4.0, 0.0, 0.0]))
     cut = cam.project(np.array([3.6, 0.0, 0.75]))  # the far edge of a table 0.4 m in front
-    top, bottom, cut_row = int(round(head[1])), int(round(feet[1])), int(round(cut[1]))
+    top, bottom, cut_row = (int(round(p[1])) for p in (head, feet, cut))
     assert top < cut_row < bottom - 5
     labels = np.ones((H, W), np.int32)
     labels[cut_row + 1 : cut_row + 20] = 2  # the table top, below the cut
-    labels[bottom + 1 : bottom + 20] = 3  # floor in front of the feet
-    cfg = OcclusionConfig(floor_margin_m=0.25, min_region_px=10, min_depth=0.0)
+    labels[bottom + 1 : bottom + 20] = 3  # the floor in front of the feet
     x0 = int(round(head[0])) - 5
-    on_floor = OcclusionLearner(labels, cfg, cam, stature)
+
+    def cut_person() -> np.ndarray:
+        s = _person(x0, top, cut_row)
+        s[cut_row - 6 : cut_row - 3, x0 - 8 : x0 - 1] = True  # a hand, ending on region 1
+        return s
+
+    common = {"min_region_px": 10, "min_depth": 0.0, "max_entered": 1.0}
+    off = OcclusionLearner(labels, OcclusionConfig(floor_margin_m=None, **common), cam, stature)
+    on = OcclusionLearner(labels, OcclusionConfig(floor_margin_m=0.25, **common), cam, stature)
     for _ in range(6):
-        on_floor.update(_person(x0, top, bottom))
-    assert not on_floor.support.any()  # the soles stand on the floor
-    plain = OcclusionLearner(labels, OcclusionConfig(min_region_px=10, min_depth=0.0))
+        off.update(cut_person())
+        on.update(cut_person())
+    assert off.support[2] == 0  # 6 leg ends against 7 hand ends: under half
+    assert on.support[2] == 6 and on.occluders[2]
+    # feet on the floor: the floor in front of them is supported by the share rule alone (in
+    # both), never by ends above the floor
+    a = OcclusionLearner(labels, OcclusionConfig(floor_margin_m=None, **common), cam, stature)
+    b = OcclusionLearner(labels, OcclusionConfig(floor_margin_m=0.25, **common), cam, stature)
     for _ in range(6):
-        plain.update(_person(x0, top, bottom))
-    assert plain.support[3] == 6  # without the test the floor region in front gathers support
-    cut_off = OcclusionLearner(labels, cfg, cam, stature)
-    for _ in range(6):
-        cut_off.update(_person(x0, top, cut_row))
-    assert cut_off.occluders[2] and not cut_off.occluders[3]
+        a.update(_person(x0, top, bottom))
+        b.update(_person(x0, top, bottom))
+    np.testing.assert_array_equal(a.support, b.support)
+    high = b._above_floor(_person(x0, top, bottom), top)
+    assert not high[bottom, x0] and high[cut_row, x0]
     with pytest.raises(ValueError, match="regions"):
-        OcclusionLearner(labels[:, :100], cfg, cam, stature)
+        OcclusionLearner(labels[:, :100], OcclusionConfig(), cam, stature)

@@ -707,11 +707,12 @@ class OcclusionConfig(_Model):
         float | None,
         Field(
             ge=0,
-            description="Opt-in: a lower end counts only where its ray meets the floor this far "
-            "beyond the person (the silhouette's top at the stature's height), so it does not "
-            "end on the floor; None: every lower end counts",
+            description="A frame also supports a region when min_ends_px of the lower ends "
+            "that lie above the floor (their ray meets the floor this far beyond the person: "
+            "the silhouette's top at the stature's height) lie on it, whatever share of all "
+            "ends that is; None: off",
         ),
-    ] = None
+    ] = 0.25
     min_frames: Annotated[
         int, Field(ge=1, le=10000, description="Supporting frames before a region occludes")
     ] = 4

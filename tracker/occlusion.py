@@ -35,13 +35,14 @@ Occluders
     furniture's front or the floor in front of it: the occluded pixels are, per column of the
     region, its top pixel and everything below.
 
-Above the floor (opt-in, ``floor_margin_m``)
-    With the camera and the person's height, a lower end counts only where its pixel's ray meets
-    the floor more than ``floor_margin_m`` beyond the person, whose distance is that of the
-    silhouette's top at the stature's height (give or take what two pixels change it): a
-    silhouette ending there does not end on the floor. It rules out the floor next to a stance
-    foot whatever the floor looks like; on the benchmark's scenes it found the table earlier
-    and the sofa later than the default (docs/tracker.md).
+Above the floor (``floor_margin_m``)
+    With the camera and the person's height, a lower end lies *above the floor* when its
+    pixel's ray meets the floor more than ``floor_margin_m`` beyond the person, whose distance
+    is that of the silhouette's top at the stature's height (give or take what two pixels change
+    it): the silhouette does not end on the floor there. A frame also supports a region when at
+    least ``min_ends_px`` such ends lie on it, whatever share of all the ends that is: when a
+    table starts to hide the legs, the hands and the crotch still hold most of the lower ends.
+    Soles on the floor never count this way, whatever the floor looks like.
 """
 
 from __future__ import annotations
@@ -102,8 +103,8 @@ class OcclusionLearner:
     config : OcclusionConfig
     camera : tracker.camera.Camera, optional
         The camera at the labels' resolution; with ``stature_m`` and
-        ``config.floor_margin_m``, lower ends count only where the silhouette ends above the
-        floor (module docstring). Otherwise every lower end counts.
+        ``config.floor_margin_m``, lower ends above the floor support a region on their own
+        (module docstring). Otherwise only the share rule applies.
     stature_m : float, optional
         The person's height, metres.
     """
@@ -184,16 +185,21 @@ class OcclusionLearner:
         ends = np.zeros_like(sil)
         ends[:-1] = sil[:-1] & ~sil[1:]
         ends[: max(first, 0)] = False
-        if self._floor_dist is not None:
-            ends &= self._above_floor(sil, top)
         on = np.bincount(self._below[ends], minlength=n)
         on[0] = 0
         self.depth += np.bincount(self._below[ends], weights=self._below_run[ends], minlength=n)
         total = int(on.sum())
         self.ends += on
         self.entered += np.bincount(self._inner[sil], minlength=n)
+        supported = (on >= c.min_ends_px) & (on >= c.min_share * total)
+        if self._floor_dist is not None:
+            # or: enough of the ends that lie above the floor, whatever the others do
+            high = ends & self._above_floor(sil, top)
+            on_high = np.bincount(self._below[high], minlength=n)
+            on_high[0] = 0
+            supported |= on_high >= c.min_ends_px
         if total >= c.min_ends_px:
-            self.support += (on >= c.min_ends_px) & (on >= c.min_share * total)
+            self.support += supported
         deep = self.depth >= c.min_depth * self.labels.shape[0] * self.ends
         occ = (
             (self.support >= c.min_frames)
