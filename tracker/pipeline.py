@@ -253,7 +253,7 @@ class Tracker:
         Per camera, the image pixels behind static furniture that can hide the person (bool or
         uint8, non-zero = occluder; any resolution with the camera's aspect ratio, usually the
         frame's), or None. Model pixels there count neither for nor against a pose, in the
-        silhouette weight and the colour cue (docs/tracker.md, "Known occluders").
+        silhouette weight and the colour cue (docs/tracker.md, "Furniture in front of the walk").
     body : tracker.body.BodyModel, optional
     likelihood : optional
         A likelihood over ``cameras`` scaled to ``config.likelihood_size`` (default:

@@ -30,7 +30,8 @@ the same poses.
 furniture that can stand between the camera and the person (a table, a sofa's back); ``none``
 for a camera without. The tracker then neither rewards nor penalises the model there: without
 it, legs hidden behind a table pull the estimate out of shape and off in depth. ``gaitwatch
-simulate`` writes such masks for its furniture (docs/tracker.md, "Known occluders").
+simulate`` writes such masks for its furniture (docs/tracker.md, "Furniture in front of the
+walk"; without them the tracker learns what it can).
 """
 
 from __future__ import annotations
