@@ -418,13 +418,13 @@ class ColourCue:
                 self.img, self.mask, self.ref, self.inv2s2, self._part_on
             )
             typ = self.typical if self.typical else 0.0
+            scored = np.flatnonzero(self._part_on)
             for k, occ in enumerate(self.occluded):
                 if occ is None or typ <= 0.0:
                     continue
                 h, w = occ.shape
-                hidden = occ & ~self.mask[k, :h, :w]
-                for p in np.flatnonzero(self._part_on):
-                    self._maps[k, p, :h, :w][hidden] = typ
+                ys, xs = np.nonzero(occ & ~self.mask[k, :h, :w])
+                self._maps[k, scored[:, None], ys, xs] = typ
         return self._maps
 
     def _sums(self, body: BodyModel, pts: np.ndarray, group: int | None) -> np.ndarray:

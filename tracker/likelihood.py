@@ -106,7 +106,9 @@ class SilhouetteLikelihood:
         self._hmax = int(self.cam_hw[:, 0].max())
         self._words = int((self.cam_hw[:, 1].max() + 63) // 64)
         self._sil: np.ndarray | None = None
-        self._vis: np.ndarray | None = None
+        #: Bit mask of the pixels where model pixels count (all set: no occluder).
+        self._vis_all = np.full((k, self._hmax, self._words), np.uint64(0xFFFFFFFFFFFFFFFF))
+        self._vis = self._vis_all
         self._vis_on = np.zeros(k, dtype=np.bool_)
         self._sil_total = np.zeros(k, dtype=np.int64)
         #: Per camera, bool (H, W) pixels behind a known static occluder, or None.
@@ -125,7 +127,7 @@ class SilhouetteLikelihood:
                 f"expected {self.n_cameras} silhouettes (one per camera), got {len(silhouettes)}"
             )
         sil = np.zeros((self.n_cameras, self._hmax, self._words), dtype=np.uint64)
-        vis = np.full_like(sil, np.uint64(0xFFFFFFFFFFFFFFFF))
+        vis = self._vis_all.copy() if any(o is not None for o in self._occluded) else None
         total = np.zeros(self.n_cameras, dtype=np.int64)
         for i, (s, cam) in enumerate(zip(silhouettes, self.cameras, strict=True)):
             s = np.asarray(s)
@@ -141,7 +143,7 @@ class SilhouetteLikelihood:
             if occ is not None:
                 vis[i, : cam.height] = raster.pack_rows(~occ | s, self._words)
         self._sil = sil
-        self._vis = vis
+        self._vis = self._vis_all if vis is None else vis
         self._vis_on = np.array([o is not None for o in self._occluded], dtype=np.bool_)
         self._sil_total = total
 

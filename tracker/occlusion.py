@@ -241,9 +241,5 @@ class OcclusionLearner:
             out[:, cols] = rows >= tops[None, :]
         return out
 
-    def reset(self) -> None:
-        """Forget the evidence (the regions stay)."""
-        self.__init__(self.labels, self.config, self.camera, self.stature_m)  # type: ignore[misc]
-
 
 __all__ = ["OcclusionLearner", "background_regions"]

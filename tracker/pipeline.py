@@ -313,11 +313,6 @@ class Tracker:
                 [cam.scaled(*c.appearance.size) for cam in self.cameras], c.appearance
             )
             likelihood.appearance = self.colour
-        #: Per camera, the occluders given (likelihood resolution) and those learned.
-        self._given_occ: list[np.ndarray | None] = [None] * len(self.cameras)
-        self.occlusion: list[OcclusionLearner | None] = [None] * len(self.cameras)
-        if occluders is not None:
-            self.set_occluders(occluders)
         self.limits = c.joint_limits().arrays()
         self.rng = rng
         self.filter: Filter = make_filter(c.filter, c, rng=rng, limits=self.limits)
@@ -333,15 +328,18 @@ class Tracker:
             self.segmenters.append(Segmenter(sc, bg))
         if any(bg is None for bg in bgs) and seg_cfg.mode == "static":
             log.info("no background image for some cameras: learning the background (mog2)")
-        if c.occlusion.learn:
-            self.occlusion = [
-                None
-                if bg is None
-                else OcclusionLearner(
-                    background_regions(bg, (w, h)), c.occlusion, lcam, self.body.height_m
-                )
-                for bg, lcam in zip(bgs, self.lik_cameras, strict=True)
-            ]
+        #: Per camera, the occluders learned (config.occlusion) and given (likelihood size).
+        self.occlusion: list[OcclusionLearner | None] = [
+            None
+            if bg is None or not c.occlusion.learn
+            else OcclusionLearner(
+                background_regions(bg, (w, h)), c.occlusion, lcam, self.body.height_m
+            )
+            for bg, lcam in zip(bgs, self.lik_cameras, strict=True)
+        ]
+        self._given_occ: list[np.ndarray | None] = [None] * len(self.cameras)
+        if occluders is not None:
+            self.set_occluders(occluders)
         self.dt_default = 1.0 / float(self.cameras[0].fps)
         import numba
 
