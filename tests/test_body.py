@@ -204,6 +204,52 @@ def test_part_girths_scale_their_parts_only() -> None:
         BodyModel(1.7, part_girths={"arms": 4.0})
 
 
+def _top_and_bottom(body: BodyModel) -> tuple[float, float]:
+    """Highest and lowest capsule surface point (z, metres) standing in the neutral pose."""
+    a, b = body.capsules(body.neutral_pose()[None])
+    top = max((a[0, :, 2] + body.radii[:, 0]).max(), (b[0, :, 2] + body.radii[:, 1]).max())
+    low = min((a[0, :, 2] - body.radii[:, 0]).min(), (b[0, :, 2] - body.radii[:, 1]).min())
+    return float(top), float(low)
+
+
+@pytest.mark.parametrize("s", [0.9, 1.1])
+def test_leg_length_scales_the_legs_at_the_same_height(s: float) -> None:
+    a, b = BodyModel(1.7), BodyModel(1.7, leg_length=s)
+    ka, kb = a.forward(a.neutral_pose())[0], b.forward(b.neutral_pose())[0]
+    for side in ("left", "right"):
+        for p, q in (("hip", "knee"), ("knee", "ankle")):
+            la = np.linalg.norm(ka[KP[f"{side}_{p}"]] - ka[KP[f"{side}_{q}"]])
+            lb = np.linalg.norm(kb[KP[f"{side}_{p}"]] - kb[KP[f"{side}_{q}"]])
+            assert lb == pytest.approx(s * la)
+    leg = a.segment_lengths["thigh"] + a.segment_lengths["shank"]
+    assert kb[KP["left_hip"], 2] - ka[KP["left_hip"], 2] == pytest.approx((s - 1) * leg)
+    assert b.segment_lengths["thigh"] == pytest.approx(s * a.segment_lengths["thigh"])
+    # the trunk gives what the legs take: the standing height stays within 1 cm, the soles on
+    # the floor; arms, feet and widths are unchanged
+    (top_a, low_a), (top_b, low_b) = _top_and_bottom(a), _top_and_bottom(b)
+    assert abs(top_b - top_a) < 0.01 and low_b == pytest.approx(low_a, abs=1e-9)
+    trunk = b.segment_lengths["sacrum_to_neck"] - a.segment_lengths["sacrum_to_neck"]
+    assert trunk * (s - 1) < 0
+    for name in ("upper_arm", "forearm", "foot", "hip_separation", "shoulder_separation"):
+        assert b.segment_lengths[name] == a.segment_lengths[name]
+    np.testing.assert_array_equal(a.radii, b.radii)
+    for heel in ("left_heel", "right_heel"):
+        assert kb[KP[heel]] == pytest.approx(ka[KP[heel]])
+
+
+def test_leg_length_with_shape_and_bad_values() -> None:
+    b = BodyModel(1.7, girth=1.1, leg_length=1.1)
+    assert b.with_shape(girth=1.2).leg_length == 1.1
+    c = b.with_shape(leg_length=0.9)
+    assert c.leg_length == 0.9 and c.girth == 1.1 and c.height_m == 1.7
+    assert b.shape_key != BodyModel(1.7, girth=1.1).shape_key
+    assert BodyModel(1.7, girth=1.1, leg_length=1.1).shape_key == b.shape_key
+    assert "leg_length=1.1" in repr(b) and "leg_length" not in repr(BodyModel(1.7))
+    for bad in (0.5, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="leg_length"):
+            BodyModel(1.7, leg_length=bad)
+
+
 @pytest.mark.parametrize(("h", "g"), [(0.2, 1.0), (3.0, 1.0), (float("nan"), 1.0), (1.7, 0.0)])
 def test_bad_body_parameters(h: float, g: float) -> None:
     with pytest.raises(ValueError, match="height_m|girth"):

@@ -207,6 +207,67 @@ def test_girth_estimated_over_the_first_frames(clip: dict) -> None:
     assert tracker.body.girth == 1.3 and tracker.likelihood.body is tracker.body
 
 
+def test_leg_length_estimated_with_two_cameras(clip: dict) -> None:
+    """A long-legged person gets longer model legs than a short-legged one of the same height
+    (two cameras); the length is then fixed. One camera, or one value: nothing estimated."""
+    from tracker.body import BodyModel
+    from tracker.likelihood import SilhouetteLikelihood
+    from tracker.pipeline import Tracker
+    from tracker.synthetic import render_clip, walking_motion
+
+    lengths = (0.9, 1.0, 1.1)
+    config = TrackerConfig(
+        ipf=IPFConfig(kept=9),
+        init={
+            "girths": (1.0,),
+            "part_girths": (1.0,),
+            "leg_lengths": lengths,
+            "leg_length_frames": 3,
+        },
+    )
+    found, clips = [], {}
+    for s in (0.9, 1.1):
+        body = BodyModel(1.70, leg_length=s)
+        poses = walking_motion(body, 6, fps=FPS, speed_m_s=1.0, start_xy=(0.2, 0.0))
+        person = SilhouetteLikelihood(body, clip["cams"])
+        frames = list(render_clip(person, poses, clip["bgs"], np.random.default_rng(1)))
+        clips[s] = frames
+        tracker = Tracker(
+            clip["cams"], config, rng=np.random.default_rng(0), backgrounds=clip["bgs"]
+        )
+        assert tracker.body.leg_length == 1.0
+        seen = []
+        for i in range(6):
+            res = tracker.process(i, i / FPS, frames[i])
+            assert res.has_pose
+            assert tracker.likelihood.body is tracker.body
+            # the estimate is the body's own: its soles stay on the floor
+            soles = res.joints[[L_ANKLE, R_ANKLE], 2]
+            assert soles.min() < 0.15
+            seen.append(tracker.body.leg_length)
+        assert seen[0] == 1.0  # the initialised frame is not scored
+        assert seen[3] == seen[4] == seen[5]  # fixed after leg_length_frames tracked frames
+        found.append(seen[-1])
+    print(f"estimated leg length: {found[0]} (person 0.9), {found[1]} (person 1.1)")
+    assert found[0] < found[1]
+    # one camera: the table's leg length, nothing estimated
+    one = Tracker(
+        clip["cams"][:1], config, rng=np.random.default_rng(0), backgrounds=clip["bgs"][:1]
+    )
+    for i in range(4):
+        one.process(i, i / FPS, clips[1.1][i][:1])
+    assert one.body.leg_length == 1.0
+    # one value: that leg length from the start
+    fixed = config.model_copy(
+        update={"init": config.init.model_copy(update={"leg_lengths": (1.1,)})}
+    )
+    tracker = Tracker(clip["cams"], fixed, rng=np.random.default_rng(0), backgrounds=clip["bgs"])
+    assert tracker.body.leg_length == 1.1
+    tracker.process(0, 0.0, clips[0.9][0])
+    tracker.process(1, 1 / FPS, clips[0.9][1])
+    assert tracker.body.leg_length == 1.1
+
+
 def test_part_girths_estimated_over_the_first_tracked_frames(clip: dict) -> None:
     """A person with thick legs gets thicker thighs and shanks than a default person; the
     factors are then fixed. One value: that factor on every part, nothing estimated."""

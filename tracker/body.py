@@ -73,6 +73,24 @@ HEAD_FORWARD_OF_NECK: Final = 0.040
 HEEL_BEHIND_ANKLE: Final = 0.030  # back of the heel behind the ankle centre
 TOE_AHEAD_OF_ANKLE: Final = 0.080  # head of the 2nd metatarsal ahead of the ankle centre
 
+#: Range of ``BodyModel(leg_length=...)``: hip-to-ankle length relative to the table's at the
+#: same standing height (adults differ by about +-8 %; the shared recordings span 0.90-1.09).
+LEG_LENGTH_RANGE: Final = (0.8, 1.2)
+
+
+def vertical_scales(leg_length: float) -> dict[str, float]:
+    """Vertical (frame z) scale per frame name for a relative leg length.
+
+    Thighs and shanks are ``leg_length`` times the table's; the pelvis, trunk and head frames
+    are scaled so that the standing height stays the same (the ankle height, the feet and the
+    arms are kept).
+    """
+    upper = (1.0 - ANKLE_HEIGHT - (HIP_HEIGHT - ANKLE_HEIGHT) * leg_length) / (1.0 - HIP_HEIGHT)
+    scales = dict.fromkeys(("left_thigh", "left_shank", "right_thigh", "right_shank"), leg_length)
+    scales.update(dict.fromkeys(("pelvis", "trunk", "head"), upper))
+    return scales
+
+
 # -- frames ---------------------------------------------------------------------------------
 FRAME_NAMES: Final[tuple[str, ...]] = (
     "pelvis",
@@ -570,9 +588,18 @@ class BodyModel:
         height_m: float = 1.70,
         girth: float = 1.0,
         part_girths: Mapping[str, float] | None = None,
+        leg_length: float = 1.0,
     ) -> None:
         if not np.isfinite(height_m) or not 0.5 <= height_m <= 2.5:
             raise ValueError(f"height_m must be between 0.5 and 2.5 metres, not {height_m}")
+        if (
+            not np.isfinite(leg_length)
+            or not LEG_LENGTH_RANGE[0] <= leg_length <= LEG_LENGTH_RANGE[1]
+        ):
+            raise ValueError(
+                f"leg_length must be between {LEG_LENGTH_RANGE[0]} and {LEG_LENGTH_RANGE[1]}, "
+                f"not {leg_length}"
+            )
         if not np.isfinite(girth) or not 0.5 <= girth <= 2.0:
             raise ValueError(f"girth must be between 0.5 and 2.0, not {girth}")
         parts = dict(part_girths or {})
@@ -585,6 +612,11 @@ class BodyModel:
                 raise ValueError(f"part_girths[{name!r}] must be between 0.5 and 3.0, not {f}")
         self.height_m = float(height_m)
         self.girth = float(girth)
+        self.leg_length = float(leg_length)
+        # Vertical scale of each frame's local coordinates: thighs and shanks by leg_length, the
+        # pelvis, trunk and head by what keeps the standing height (arms and feet as they are).
+        zs = vertical_scales(self.leg_length)
+        fscale = np.array([zs.get(n, 1.0) for n in FRAME_NAMES])
         #: Factor per body part (every part of GIRTH_PARTS, 1.0 when not given).
         self.part_girths: dict[str, float] = {n: float(parts.get(n, 1.0)) for n in GIRTH_PARTS}
         H = self.height_m
@@ -606,6 +638,7 @@ class BodyModel:
                 if kframe != parent:
                     raise AssertionError(f"{name}: joint {joint_kp} not in parent {parent}")
                 self._offset[f] = np.asarray(local) * H
+                self._offset[f, 2] *= fscale[_F[parent]]
             for k, (ax, dof, sign) in enumerate(rots):
                 self._rot_axis[f, k] = ax
                 self._rot_dof[f, k] = DOF[dof]
@@ -628,6 +661,7 @@ class BodyModel:
             local.append(cap.b)
         self._pt_frame = np.asarray(frames, dtype=np.int64)
         self._pt_local = np.asarray(local, dtype=np.float64) * H
+        self._pt_local[:, 2] *= fscale[self._pt_frame]
         self.cap_a = np.asarray(cap_a, dtype=np.int64)
         self.cap_b = np.asarray(cap_b, dtype=np.int64)
         part_of = {seg: n for n, segs in GIRTH_PARTS.items() for seg in segs}
@@ -666,20 +700,26 @@ class BodyModel:
             pt_on = frame_on[self._pt_frame].copy()
             self._masks[g] = (frame_on, pt_on)
 
-        self.root_height = (HIP_HEIGHT + SACRUM_ABOVE_HIP) * H
+        legs, upper = zs["left_thigh"], zs["pelvis"]
+        self.root_height = (
+            ANKLE_HEIGHT + (HIP_HEIGHT - ANKLE_HEIGHT) * legs + SACRUM_ABOVE_HIP * upper
+        ) * H
+        head = np.asarray(kp["head"][1]) * H
+        head[2] *= upper
         self.segment_lengths: dict[str, float] = {
             "hip_separation": HIP_JOINT_SEPARATION * H,
             "shoulder_separation": 2 * SHOULDER_JOINT_HALF_WIDTH * H,
             "sacrum_to_neck": (
                 SHOULDER_HEIGHT + NECK_ABOVE_SHOULDER - HIP_HEIGHT - SACRUM_ABOVE_HIP
             )
-            * H,
-            "neck_to_head": float(np.linalg.norm(kp["head"][1])) * H,
+            * H
+            * upper,
+            "neck_to_head": float(np.linalg.norm(head)),
             "upper_arm": (SHOULDER_HEIGHT - ELBOW_HEIGHT) * H,
             "forearm": (ELBOW_HEIGHT - WRIST_HEIGHT) * H,
             "hand": HAND_LENGTH * H,
-            "thigh": (HIP_HEIGHT - KNEE_HEIGHT) * H,
-            "shank": (KNEE_HEIGHT - ANKLE_HEIGHT) * H,
+            "thigh": (HIP_HEIGHT - KNEE_HEIGHT) * H * legs,
+            "shank": (KNEE_HEIGHT - ANKLE_HEIGHT) * H * legs,
             "foot": FOOT_LENGTH * H,
             "heel_to_toe": (HEEL_BEHIND_ANKLE + TOE_AHEAD_OF_ANKLE) * H,
             "ankle_height": ANKLE_HEIGHT * H,
@@ -754,23 +794,31 @@ class BodyModel:
         return pose
 
     def with_shape(
-        self, girth: float | None = None, part_girths: Mapping[str, float] | None = None
+        self,
+        girth: float | None = None,
+        part_girths: Mapping[str, float] | None = None,
+        leg_length: float | None = None,
     ) -> BodyModel:
-        """The same person (height) with another girth and/or part factors (others kept)."""
+        """The same person (height) with another girth, part factors and/or leg length (the
+        others kept)."""
         parts = dict(self.part_girths)
         parts.update(part_girths or {})
         return type(self)(
             height_m=self.height_m,
             girth=self.girth if girth is None else girth,
             part_girths=parts,
+            leg_length=self.leg_length if leg_length is None else leg_length,
         )
 
     @property
     def shape_key(self) -> tuple[float, ...]:
-        """Girth then the part factors (GIRTH_PARTS order): equal keys, equal volumes."""
-        return (self.girth, *self.part_girths.values())
+        """Girth, the part factors (GIRTH_PARTS order), then the leg length: equal keys, equal
+        bodies."""
+        return (self.girth, *self.part_girths.values(), self.leg_length)
 
     def __repr__(self) -> str:
         parts = {n: f for n, f in self.part_girths.items() if f != 1.0}
         extra = f", part_girths={parts}" if parts else ""
+        if self.leg_length != 1.0:
+            extra += f", leg_length={self.leg_length}"
         return f"BodyModel(height_m={self.height_m}, girth={self.girth}{extra})"

@@ -341,6 +341,43 @@ class InitConfig(_Model):
             "frame); then they are fixed",
         ),
     ] = 10
+    leg_lengths: Annotated[
+        tuple[float, ...],
+        Field(
+            min_length=1,
+            max_length=12,
+            description="Relative leg lengths (hip to ankle, at the same standing height; "
+            "tracker.body.BodyModel leg_length, 0.8..1.2) scored over the first "
+            "leg_length_frames tracked frames: the one whose best particle weighs most, summed "
+            "over those frames, is kept. One value: that leg length, nothing estimated",
+        ),
+    ] = (0.9, 0.95, 1.0, 1.05, 1.1)
+    leg_length_min_cameras: Annotated[
+        int,
+        Field(
+            ge=1,
+            le=16,
+            description="Estimate the leg length only with at least this many cameras (with "
+            "fewer, several leg_lengths mean the table's, 1.0): through one camera the "
+            "estimate was wrong often enough to cost more accuracy than it gained",
+        ),
+    ] = 2
+    leg_length_frames: Annotated[
+        int,
+        Field(
+            ge=1,
+            le=1000,
+            description="Frames over which the leg lengths are scored (from the first tracked "
+            "frame); then the leg length is fixed",
+        ),
+    ] = 10
+
+    @field_validator("leg_lengths")
+    @classmethod
+    def _leg_lengths(cls, v: tuple[float, ...]) -> tuple[float, ...]:
+        if any(not 0.8 <= s <= 1.2 for s in v):
+            raise ValueError("leg_lengths must be within 0.8..1.2")
+        return v
 
     @field_validator("part_girths")
     @classmethod

@@ -288,14 +288,22 @@ class Tracker:
         #: Part factors (config.init.part_girths), estimated over the first tracked frames.
         self._estimate_parts = self._estimate_girth and len(c.init.part_girths) > 1
         self._part_scores: dict[tuple[str, float], float] = {}
+        #: Relative leg length (config.init.leg_lengths), estimated over the first tracked frames.
+        self._estimate_legs = (
+            self._estimate_girth
+            and len(c.init.leg_lengths) > 1
+            and len(cameras) >= c.init.leg_length_min_cameras
+        )
+        self._leg_scores: dict[float, float] = {}
         if body is None:
             from tracker.body import BodyModel
 
-            girths, parts = c.init.girths, c.init.part_girths
+            girths, parts, legs = c.init.girths, c.init.part_girths, c.init.leg_lengths
             body = BodyModel(
                 height_m=height_m,
                 girth=girths[0] if len(girths) == 1 else 1.0,
                 part_girths=dict.fromkeys(GIRTH_PARTS, parts[0]) if len(parts) == 1 else None,
+                leg_length=legs[0] if len(legs) == 1 else 1.0,
             )
         self.body = body
         if likelihood is None:
@@ -367,6 +375,7 @@ class Tracker:
         self._alt: _Hypothesis | None = None
         self._girth_frames_left = c.init.girth_frames
         self._part_frames_left = c.init.part_girth_frames
+        self._leg_frames_left = c.init.leg_length_frames
         self._masks: list[np.ndarray] = []
         self._tracked_frames = 0
         #: Weights of the estimates at the last re-detection points; skipped frames in a row.
@@ -560,6 +569,8 @@ class Tracker:
             self._update_girth(pose)
         if self._estimate_parts and status == "tracked":
             self._update_part_girths(pose)
+        if self._estimate_legs and status == "tracked":
+            pose, weight = self._update_leg_length(pose, weight, dt)
         pose, weight, joints = self._floor_constraint(pose, weight)
         if self._alt is not None:
             if status == "tracked":
@@ -642,7 +653,7 @@ class Tracker:
         memo[id(self._window)] = []
         b = copy.deepcopy(self, memo)
         b._revising = False
-        b._estimate_girth = b._estimate_parts = False
+        b._estimate_girth = b._estimate_parts = b._estimate_legs = False
         b._alt = None
         b._path = []
         b._heading_checked_until = -np.inf
@@ -760,6 +771,54 @@ class Tracker:
             if not self._estimate_girth:  # both fixed: keep only the body in use
                 self._girth_bodies = {self.body.shape_key: self.body}
             log.info("body part girths %s fit the silhouettes best", best)
+
+    def _update_leg_length(
+        self, pose: np.ndarray, weight: float, dt: float
+    ) -> tuple[np.ndarray, float]:
+        """Score every relative leg length on this frame; keep the best so far.
+
+        Over the first ``init.leg_length_frames`` tracked frames, the estimate and the heaviest
+        distinct particles are moved onto each leg length of ``init.leg_lengths`` (the same
+        standing height: longer legs, shorter trunk; each pose raised or lowered so that its
+        lowest sole point stays where it was) and refitted by one filter step with that body
+        (the angles that suit one leg length do not suit another). A length's score is the sum
+        over frames of its refitted weight; the body takes the best-scoring length after each
+        frame, with its refitted estimate and particles, and keeps it after the last.
+
+        Returns
+        -------
+        (pose, weight) on the body now in use.
+        """
+        lengths = self.config.init.leg_lengths
+        cand = self._shape_candidates(pose)
+        current = self.body
+        z = DOF["root_z"]
+        soles = [L_HEEL, R_HEEL, L_TOE, R_TOE]
+        floor = np.asarray(current.forward(cand))[:, soles, 2].min(axis=1)
+        saved = dict(self.filter.__dict__)
+        trials: dict[float, tuple[np.ndarray, float, dict]] = {}
+        for s in lengths:
+            body = self._girth_body(base=current.with_shape(leg_length=s))
+            moved = cand.copy()
+            moved[:, z] += floor - np.asarray(body.forward(cand))[:, soles, 2].min(axis=1)
+            self._set_body(body)
+            with _single_thread():
+                w = np.asarray(self._lik.weights(moved), dtype=np.float64)
+            order = np.argsort(-w)
+            new, nw = self._seed_and_step(self.filter, moved[order], w[order], dt, 1)
+            trials[s] = (new, nw, dict(self.filter.__dict__))
+            self.filter.__dict__.update(saved)
+            self._leg_scores[s] = self._leg_scores.get(s, 0.0) + nw
+        best = max(lengths, key=lambda s: self._leg_scores[s])
+        self._set_body(self._girth_body(base=current.with_shape(leg_length=best)))
+        if best != current.leg_length:
+            pose, weight, state = trials[best]
+            self.filter.__dict__.update(state)
+        self._leg_frames_left -= 1
+        if self._leg_frames_left <= 0:
+            self._estimate_legs = False
+            log.info("relative leg length %.2f (of %s) fits the silhouettes best", best, lengths)
+        return pose, float(weight)
 
     def _update_girth(self, pose: np.ndarray) -> None:
         """Score every girth on this frame's refined particles; keep the best so far.
