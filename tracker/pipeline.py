@@ -13,7 +13,9 @@ I/O: the caller decodes video and writes the pose log) and returns a :class:`Fra
 3. **Initialisation** (first frame, after nobody was in view, after loss): the exhaustive search of
    :mod:`tracker.init` seeds the filter, followed by one filter step. At the first one the
    search runs once per ``config.init.girths`` value; the girth is then scored on the refined
-   particles over ``init.girth_frames`` frames and kept fixed (when the tracker built the model).
+   particles over ``init.girth_frames`` frames and kept fixed (when the tracker built the model);
+   so are the part girths and, with two cameras or more, the leg length (``init.leg_lengths``)
+   over the first tracked frames.
 4. Otherwise the **origin search** (:mod:`tracker.origin`) moves the root, holding the previous
    body-part configuration, then the **filter** (IPF, APF or Condensation) updates the body parts,
    then (``origin.after_filter``) the origin is searched again holding the new legs.
