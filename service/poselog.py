@@ -330,6 +330,11 @@ POSE_SCHEMA: Final[dict] = {
         },
         "weight": {**_NUM_OR_NULL, "description": "Weight (likelihood) of the estimate"},
         "filter": {"type": "string", "description": "ipf, apf, condensation ..."},
+        "leg_length": {
+            "type": "number",
+            "description": "Relative leg length of the body model the dofs refer to "
+            "(tracker.body.BodyModel leg_length); 1.0 when absent",
+        },
     },
     "required": ["frame", "time_s", "joints", "dofs", "weight", "filter"],
 }
@@ -749,6 +754,7 @@ class PoseLogWriter:
         dofs: np.ndarray,
         weight: float,
         filter_name: str | None = None,
+        leg_length: float | None = None,
     ) -> None:
         """Log the pose of one frame.
 
@@ -766,6 +772,9 @@ class PoseLogWriter:
             Weight (likelihood) of the estimate.
         filter_name : str, optional
             Filter that produced the pose; the writer's ``filter_name`` if not given.
+        leg_length : float, optional
+            Relative leg length of the body model ``dofs`` refer to (``BodyModel.leg_length``,
+            0.8-1.2); not written when not given (readers take 1.0).
         """
         frame_index = int(frame_index)
         time_s = float(time_s)
@@ -775,6 +784,8 @@ class PoseLogWriter:
             raise ValueError(f"joints must have shape ({N_KEYPOINTS}, 3), not {joints.shape}")
         if dofs.shape != (N_DOF,):
             raise ValueError(f"dofs must have shape ({N_DOF},), not {dofs.shape}")
+        if leg_length is not None and not (math.isfinite(leg_length) and 0.5 <= leg_length <= 2):
+            raise ValueError(f"leg_length must be a relative length near 1, not {leg_length}")
         log_time = self._log_time(frame_index, time_s)
         w = float(weight)
         pose = {
@@ -785,6 +796,8 @@ class PoseLogWriter:
             "weight": w if math.isfinite(w) else None,
             "filter": self.filter_name if filter_name is None else str(filter_name),
         }
+        if leg_length is not None:
+            pose["leg_length"] = float(leg_length)
         self._add(self._ch_pose, log_time, pose, frame_index)
         self._add(self._ch_skeleton, log_time, skeleton_scene_update(joints, log_time), frame_index)
         self.n_pose += 1
@@ -882,6 +895,9 @@ class PoseLog:
         Weight of each estimate.
     filters : list of str
         Filter that produced each pose.
+    leg_lengths : ndarray, shape (T,)
+        Relative leg length of the body model each pose's ``dofs`` refer to (1.0 where the log
+        does not say).
     no_pose : list of (int, float, str)
         Frames without a pose: frame, time_s, reason.
     cameras : list of Camera
@@ -904,6 +920,7 @@ class PoseLog:
     metadata: dict
     truncated: bool
     notes: list[tuple[int, float, str]] = field(default_factory=list)
+    leg_lengths: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def __len__(self) -> int:
         return len(self.trajectory)
@@ -926,6 +943,7 @@ class _Collector:
         self.dofs: list[np.ndarray] = []
         self.weights: list[float] = []
         self.filters: list[str | None] = []
+        self.leg_lengths: list[float] = []
         self.no_pose: list[tuple[int, float, str]] = []
         self.notes: list[tuple[int, float, str]] = []
 
@@ -945,6 +963,8 @@ class _Collector:
                 self.weights.append(np.nan if msg["weight"] is None else float(msg["weight"]))
                 f = msg.get("filter")
                 self.filters.append(None if f is None else str(f))
+                legs = msg.get("leg_length")
+                self.leg_lengths.append(1.0 if legs is None else float(legs))
             else:
                 entry = (int(msg["frame"]), float(msg["time_s"]), str(msg["reason"]))
                 (self.no_pose if msg.get("no_pose", True) else self.notes).append(entry)
@@ -1163,4 +1183,5 @@ def read_poselog(path: str | Path) -> PoseLog:
         metadata=meta,
         truncated=out.truncated,
         notes=sorted(out.notes),
+        leg_lengths=np.asarray(out.leg_lengths, dtype=np.float64)[order],
     )

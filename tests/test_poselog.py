@@ -47,6 +47,7 @@ class Recorded:
         self.dofs: list[np.ndarray] = []
         self.weights: list[float] = []
         self.filters: list[str] = []
+        self.leg_lengths: list[float] = []
         self.no_pose: list[tuple[int, float, str]] = []
         self.order: list[str] = []  # "pose" / "none" in writing order
 
@@ -90,7 +91,9 @@ def _write_log(
         dofs = rng.normal(0.0, 0.3, size=31)
         weight = float(rng.uniform(0.1, 0.9))
         filt = "apf" if i % 13 == 0 else None
-        w.write_frame(frame, t, joints, dofs, weight, filter_name=filt)
+        legs = None if i % 5 == 0 else float(rng.uniform(0.9, 1.1))  # absent: read as 1.0
+        w.write_frame(frame, t, joints, dofs, weight, filter_name=filt, leg_length=legs)
+        rec.leg_lengths.append(1.0 if legs is None else legs)
         rec.frames.append(frame)
         rec.times.append(t)
         rec.joints.append(joints)
@@ -128,6 +131,7 @@ def test_round_trip_reads_back_exactly(written: tuple[Path, Recorded]) -> None:
     np.testing.assert_array_equal(log.dofs, np.stack(rec.dofs))
     np.testing.assert_array_equal(log.weights, rec.weights)
     assert log.filters == rec.filters
+    np.testing.assert_array_equal(log.leg_lengths, rec.leg_lengths)
     assert log.no_pose == rec.no_pose
     assert traj.fps == 20.0
     assert traj.source == str(path)
@@ -214,6 +218,9 @@ def test_writer_rejects_bad_frames(tmp_path: Path) -> None:
         w.write_frame(7, 0.35, np.zeros((18, 3)), d, 1.0)
     with pytest.raises(ValueError, match="shape"):
         w.write_frame(7, 0.35, j, np.zeros(30), 1.0)
+    for bad in (0.0, float("nan"), 3.0):
+        with pytest.raises(ValueError, match="leg_length"):
+            w.write_frame(7, 0.35, j, d, 1.0, leg_length=bad)
     w.close()
     with pytest.raises(ValueError, match="closed"):
         w.write_frame(8, 0.4, j, d, 1.0)

@@ -497,7 +497,15 @@ def test_track_cli_round_trip_and_seed(clip: dict, tmp_path: Path, capsys) -> No
     raw = read_poselog(raw_out)
     assert raw.metadata["settings"]["tracker"]["smoothing"]["enabled"] is False
     assert np.array_equal(raw.dofs, a.dofs)  # the same tracking
-    assert np.allclose(clip["body"].forward(raw.dofs), raw.trajectory.positions, atol=1e-9)
+    # the key points are the forward kinematics of the DOFs on the body the log names (two
+    # cameras: the leg length is estimated over the first tracked frames)
+    from tracker.body import BodyModel
+
+    assert raw.leg_lengths.shape == (6,)
+    assert set(raw.leg_lengths) <= set(TrackerConfig().init.leg_lengths)
+    for dofs, legs, joints in zip(raw.dofs, raw.leg_lengths, raw.trajectory.positions, strict=True):
+        body = BodyModel(clip["body"].height_m, leg_length=float(legs))
+        assert np.allclose(body.forward(dofs[None])[0], joints, atol=1e-9)
     from tracker.config import SmoothingConfig
     from tracker.smoothing import smooth_keypoints
 

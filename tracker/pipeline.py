@@ -100,6 +100,9 @@ class FrameResult:
     revisions : list of FrameResult
         Results that replace those already returned for earlier frames (``config.revise``: the
         backward pass run when the track has settled), oldest first; usually empty.
+    leg_length : float
+        Relative leg length of the body model ``pose`` refers to (``BodyModel.leg_length``;
+        ``joints`` is that body's forward kinematics of ``pose``).
     """
 
     frame_index: int
@@ -112,6 +115,7 @@ class FrameResult:
     notes: list[str] = field(default_factory=list)
     evaluations: int = 0
     revisions: list[FrameResult] = field(default_factory=list)
+    leg_length: float = 1.0
 
     @property
     def has_pose(self) -> bool:
@@ -596,6 +600,7 @@ class Tracker:
             status=status,
             notes=notes,
             evaluations=self._lik.count,
+            leg_length=float(self.body.leg_length),
         )
 
     # -- backward pass ---------------------------------------------------------------------

@@ -271,7 +271,13 @@ def run(args: argparse.Namespace) -> int:
                 index, time_s = res.frame_index, res.time_s
                 if res.has_pose:
                     writer.write_frame(
-                        index, time_s, out.joints, res.pose, res.weight, tracker.filter_name
+                        index,
+                        time_s,
+                        out.joints,
+                        res.pose,
+                        res.weight,
+                        tracker.filter_name,
+                        leg_length=res.leg_length,
                     )
                     n_pose += 1
                 else:
