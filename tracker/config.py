@@ -348,8 +348,10 @@ class InitConfig(_Model):
             max_length=12,
             description="Relative leg lengths (hip to ankle, at the same standing height; "
             "tracker.body.BodyModel leg_length, 0.8..1.2) scored over the first "
-            "leg_length_frames tracked frames: the one whose best particle weighs most, summed "
-            "over those frames, is kept. One value: that leg length, nothing estimated",
+            "leg_length_frames tracked frames: the heaviest particles are moved onto each "
+            "length and refitted by one filter step; the length whose refitted estimate weighs "
+            "most, summed over those frames, is kept. One value: that leg length, nothing "
+            "estimated",
         ),
     ] = (0.9, 0.95, 1.0, 1.05, 1.1)
     leg_length_min_cameras: Annotated[

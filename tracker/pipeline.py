@@ -734,10 +734,15 @@ class Tracker:
         self.likelihood.body = body
 
     def _girth_body(
-        self, girth: float | None = None, parts: dict[str, float] | None = None, base=None
+        self,
+        girth: float | None = None,
+        parts: dict[str, float] | None = None,
+        base=None,
+        leg_length: float | None = None,
     ):
-        """``base`` (default: the current body) with another girth and/or part factors (cached)."""
-        body = (base or self.body).with_shape(girth, parts)
+        """``base`` (default: the current body) with another girth, part factors and/or leg
+        length (cached)."""
+        body = (base or self.body).with_shape(girth, parts, leg_length)
         return self._girth_bodies.setdefault(body.shape_key, body)
 
     def _shape_score(self, body, candidates: np.ndarray) -> float:
@@ -805,7 +810,7 @@ class Tracker:
         saved = dict(self.filter.__dict__)
         trials: dict[float, tuple[np.ndarray, float, dict]] = {}
         for s in lengths:
-            body = self._girth_body(base=current.with_shape(leg_length=s))
+            body = self._girth_body(base=current, leg_length=s)
             moved = cand.copy()
             moved[:, z] += floor - np.asarray(body.forward(cand))[:, soles, 2].min(axis=1)
             self._set_body(body)
@@ -817,7 +822,7 @@ class Tracker:
             self.filter.__dict__.update(saved)
             self._leg_scores[s] = self._leg_scores.get(s, 0.0) + nw
         best = max(lengths, key=lambda s: self._leg_scores[s])
-        self._set_body(self._girth_body(base=current.with_shape(leg_length=best)))
+        self._set_body(self._girth_body(base=current, leg_length=best))
         if best != current.leg_length:
             pose, weight, state = trials[best]
             self.filter.__dict__.update(state)
