@@ -785,7 +785,7 @@ class PoseLogWriter:
         if dofs.shape != (N_DOF,):
             raise ValueError(f"dofs must have shape ({N_DOF},), not {dofs.shape}")
         if leg_length is not None and not (math.isfinite(leg_length) and 0.5 <= leg_length <= 2):
-            raise ValueError(f"leg_length must be a relative length near 1, not {leg_length}")
+            raise ValueError(f"leg_length must be finite and between 0.5 and 2, not {leg_length}")
         log_time = self._log_time(frame_index, time_s)
         w = float(weight)
         pose = {

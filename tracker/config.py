@@ -22,7 +22,15 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from gaitwatch.errors import InputError
 from tracker.dof import DOF_NAMES, INTERESTING_DEFAULT, LIMIT_PROFILES, ROOT_DOFS
@@ -255,6 +263,15 @@ class OriginSearchConfig(_Model):
     ] = 0.5
 
 
+#: Allowed values of InitConfig's shape factors (tracker.body.BodyModel's own ranges: girth,
+#: part_girths, leg_length as LEG_LENGTH_RANGE).
+_SHAPE_FACTOR_RANGES: dict[str, tuple[float, float]] = {
+    "girths": (0.5, 2.0),
+    "part_girths": (0.5, 3.0),
+    "leg_lengths": (0.8, 1.2),
+}
+
+
 class InitConfig(_Model):
     """Exhaustive first-frame / re-initialisation search over plausible configurations."""
 
@@ -374,25 +391,12 @@ class InitConfig(_Model):
         ),
     ] = 10
 
-    @field_validator("leg_lengths")
+    @field_validator("girths", "part_girths", "leg_lengths")
     @classmethod
-    def _leg_lengths(cls, v: tuple[float, ...]) -> tuple[float, ...]:
-        if any(not 0.8 <= s <= 1.2 for s in v):
-            raise ValueError("leg_lengths must be within 0.8..1.2")
-        return v
-
-    @field_validator("part_girths")
-    @classmethod
-    def _part_girths(cls, v: tuple[float, ...]) -> tuple[float, ...]:
-        if any(not 0.5 <= f <= 3.0 for f in v):
-            raise ValueError("part_girths must be within 0.5..3.0")
-        return v
-
-    @field_validator("girths")
-    @classmethod
-    def _girths(cls, v: tuple[float, ...]) -> tuple[float, ...]:
-        if any(not 0.5 <= g <= 2.0 for g in v):
-            raise ValueError("girths must be within 0.5..2.0")
+    def _shape_factors(cls, v: tuple[float, ...], info: ValidationInfo) -> tuple[float, ...]:
+        lo, hi = _SHAPE_FACTOR_RANGES[info.field_name]
+        if any(not lo <= f <= hi for f in v):
+            raise ValueError(f"{info.field_name} must be within {lo}..{hi}")
         return v
 
 

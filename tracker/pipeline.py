@@ -807,7 +807,6 @@ class Tracker:
         z = DOF["root_z"]
         soles = [L_HEEL, R_HEEL, L_TOE, R_TOE]
         floor = np.asarray(current.forward(cand))[:, soles, 2].min(axis=1)
-        saved = dict(self.filter.__dict__)
         trials: dict[float, tuple[np.ndarray, float, dict]] = {}
         for s in lengths:
             body = self._girth_body(base=current, leg_length=s)
@@ -817,7 +816,7 @@ class Tracker:
             with _single_thread():
                 w = np.asarray(self._lik.weights(moved), dtype=np.float64)
             order = np.argsort(-w)
-            new, nw = self._seed_and_step(self.filter, moved[order], w[order], dt, 1)
+            new, nw, saved = self._trial_steps(moved[order], w[order], dt, 1)
             trials[s] = (new, nw, dict(self.filter.__dict__))
             self.filter.__dict__.update(saved)
             self._leg_scores[s] = self._leg_scores.get(s, 0.0) + nw
