@@ -920,6 +920,23 @@ class ReviseConfig(_Model):
         return self
 
 
+class CollisionConfig(_Model):
+    """The non-penetration prior (:mod:`tracker.collision`): arms may not sink into the trunk
+    or pelvis further than at rest. Off by default: measured neutral (docs/tracker.md)."""
+
+    enabled: Annotated[
+        bool, Field(description="Multiply the weight by the non-penetration factor")
+    ] = False
+    tolerance_m: Annotated[
+        float,
+        Field(ge=0, le=0.2, description="Depth allowed beyond a capsule pair's depth at rest, m"),
+    ] = 0.01
+    softness_m: Annotated[
+        float,
+        Field(gt=0, le=0.5, description="Further depth over which the factor falls to 0, m"),
+    ] = 0.03
+
+
 class TrackerConfig(_Model):
     """Everything the tracking pipeline needs besides cameras, footage and a seed."""
 
@@ -944,6 +961,7 @@ class TrackerConfig(_Model):
     leg_swap: LegSwapConfig = Field(default_factory=LegSwapConfig)
     refine: RefineConfig = Field(default_factory=RefineConfig)
     appearance: AppearanceConfig = Field(default_factory=AppearanceConfig)
+    collision: CollisionConfig = Field(default_factory=CollisionConfig)
     occlusion: OcclusionConfig = Field(default_factory=OcclusionConfig)
     limits_profile: Annotated[str, Field(description="tracker.dof limit profile")] = "walking"
     limits_overrides_deg: dict[str, tuple[float, float]] = {}

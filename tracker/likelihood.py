@@ -115,6 +115,9 @@ class SilhouetteLikelihood:
         self._occluded: list[np.ndarray | None] = [None] * k
         #: Optional colour cue (tracker.appearance.ColourCue): multiplies the weights when active.
         self.appearance = None
+        #: Optional non-penetration prior (tracker.collision.CollisionPrior): multiplies the
+        #: weights.
+        self.collision = None
 
     @property
     def n_cameras(self) -> int:
@@ -218,6 +221,8 @@ class SilhouetteLikelihood:
         w = weight_from_counts(self._counts(pts), self.measure)
         if self.appearance is not None and self.appearance.active:  # colour cue
             w = w * self.appearance.weight_factors(self.body, pts)
+        if self.collision is not None:
+            w = w * self.collision.factors(self.body, pts)
         return w
 
     def counts_factored(
@@ -298,6 +303,8 @@ class SilhouetteLikelihood:
         w = weight_from_counts(self._counts_factored(*pts), self.measure)
         if self.appearance is not None and self.appearance.active:  # colour cue
             w = w * self.appearance.factor(self.appearance.scores_factored(self.body, *pts[:3]))
+        if self.collision is not None:  # the pairs lie in the base (upper body and pelvis)
+            w = w * self.collision.factors(self.body, pts[0])[:, None, None]
         return w
 
     def render_mask(self, pose: np.ndarray, camera_index: int) -> np.ndarray:

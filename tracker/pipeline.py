@@ -327,6 +327,12 @@ class Tracker:
                 [cam.scaled(*c.appearance.size) for cam in self.cameras], c.appearance
             )
             likelihood.appearance = self.colour
+        if c.collision.enabled and hasattr(likelihood, "collision"):
+            from tracker.collision import CollisionPrior
+
+            likelihood.collision = CollisionPrior(
+                tolerance_m=c.collision.tolerance_m, softness_m=c.collision.softness_m
+            )
         self.limits = c.joint_limits().arrays()
         self.rng = rng
         self.filter: Filter = make_filter(c.filter, c, rng=rng, limits=self.limits)
