@@ -26,17 +26,17 @@ from typing import Final
 import numba as nb
 import numpy as np
 
-from tracker.body import CAPSULE_NAMES, CAPSULES, LEFT_LEG_SEGMENTS, RIGHT_LEG_SEGMENTS, BodyModel
-
-_TRUNK: Final[tuple[str, ...]] = ("pelvis", "trunk_left", "trunk_right", "trunk_spine")
-_ARM: Final[tuple[str, ...]] = (
-    "left_upper_arm",
-    "right_upper_arm",
-    "left_forearm",
-    "right_forearm",
-    "left_hand",
-    "right_hand",
+from tracker.body import (
+    CAPSULE_NAMES,
+    CAPSULES,
+    GIRTH_PARTS,
+    LEFT_LEG_SEGMENTS,
+    RIGHT_LEG_SEGMENTS,
+    BodyModel,
 )
+
+_TRUNK: Final[tuple[str, ...]] = tuple(c.name for c in CAPSULES if c.segment in ("pelvis", "trunk"))
+_ARM: Final[tuple[str, ...]] = tuple(c.name for c in CAPSULES if c.segment in GIRTH_PARTS["arms"])
 #: Every arm capsule against every capsule of the trunk and pelvis.
 ARM_TRUNK_PAIRS: Final[tuple[tuple[str, str], ...]] = tuple((a, t) for a in _ARM for t in _TRUNK)
 
