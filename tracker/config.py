@@ -11,10 +11,10 @@ its intervals).
 Defaults follow issue 3: IPF with M = 81 kept particles, q = 3 grid values over an interval of
 10 degrees on the n = 4 "interesting" DOFs (both hips' and both knees' flexion), i.e. 6561
 particles per frame; the baselines (Condensation, annealed particle filter) get the same number of
-likelihood evaluations per frame. The IPF's defaults add, within that budget, velocity-centred and
-adaptively widened intervals, a coarse-to-fine second pass and a diverse selection
-(``interval_centre="value"``, ``adaptive_width=0``, ``refine_share=0``, ``max_per_group=0``
-restore the published method; see ``docs/tracker.md``).
+likelihood evaluations per frame. The IPF's defaults add, within that budget, a coarse-to-fine
+second pass and a diverse selection (``refine_share=0``, ``max_per_group=0`` restore the published
+method); velocity-centred and adaptively widened intervals are options, off by default
+(``interval_centre="velocity"``, ``adaptive_width > 0``; see ``docs/tracker.md``).
 """
 
 from __future__ import annotations
@@ -111,7 +111,7 @@ class IPFConfig(_Model):
             description="Centre of each L interval: the particle's value (the method) or its "
             "value moved by the damped velocity of the estimate's L DOFs over the last frame"
         ),
-    ] = "velocity"
+    ] = "value"
     velocity_damping: Annotated[
         float, Field(ge=0, le=1, description="Factor on the velocity for interval_centre=velocity")
     ] = 0.7
@@ -123,7 +123,7 @@ class IPFConfig(_Model):
             description="Widen each L interval to this factor times the L DOF's change over the "
             "last frame (the observed joint speed); interval_deg stays the minimum. 0: off",
         ),
-    ] = 2.0
+    ] = 0.0
     max_interval_deg: Annotated[
         float, Field(gt=0, le=180, description="Upper bound of an adaptively widened interval")
     ] = 60.0

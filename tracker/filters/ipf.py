@@ -15,17 +15,23 @@ Each frame:
 Defaults that go beyond the method as published (each can be switched back, see
 ``docs/tracker.md``):
 
+* ``refine_share``: coarse-to-fine within the same budget. The first pass spends
+  ``M1 = M - M2`` groups on intervals ``coarse_factor`` times wider; the second pass spends
+  ``M2 = round(refine_share * M)`` groups on the M2 heaviest distinct particles of the first pass
+  with intervals one first-pass grid step wide (half the noise on R). Still N = M * I evaluations
+  (0: one pass, the method).
+* ``max_per_group``: the selection keeps at most this many particles of one group of the last
+  frame while other distinct particles remain (0: the M heaviest distinct, the method).
+
+Options off by default (the method's intervals did better on the accuracy benchmark's fresh
+draws, ``docs/tracker.md``):
+
 * ``interval_centre="velocity"``: the interval centres move by the damped change of the
   estimate's L values over the last frame (a constant-velocity prediction, not learned dynamics),
   so that fast swing phases are not limited to ``w / 2`` per frame (``"value"``: the method).
 * ``adaptive_width``: an interval is widened to ``adaptive_width`` times the DOF's change over the
   last frame (the observed joint speed), never narrower than ``interval_deg`` and never wider
   than ``max_interval_deg`` (0: fixed widths, the method).
-* ``refine_share``: coarse-to-fine within the same budget. The first pass spends
-  ``M1 = M - M2`` groups on intervals ``coarse_factor`` times wider; the second pass spends
-  ``M2 = round(refine_share * M)`` groups on the M2 heaviest distinct particles of the first pass
-  with intervals one first-pass grid step wide (half the noise on R). Still N = M * I evaluations
-  (0: one pass, the method).
 
 Structure exploited where exact: the I particles of a group share R, so they share the upper body
 and pelvis, and (when L holds only leg DOFs) the left-leg and right-leg variants combine
