@@ -113,7 +113,15 @@ RECORDINGS: dict[str, Recording] = {
     ),
     "rajagopal": Recording("opensim/rajagopal-walk.trc", 0.0, "heavy", "coat", "OpenSim walk"),
     "newwalk": Recording("c3d/newwalk.c3d", 0.0, "short", "loose", "C3D sample walk"),
+    # Pathological gait: OpenSim crouch-gait angle cycles walked by foot contact
+    # (gaitwatch.sim.angles; 1.70 m unless the shape sets a height). Not in the default plan:
+    # `--recordings crouch1,crouch2,crouch3,crouch4`.
+    "crouch1": Recording("opensim/angles-crouch1.mot", 0.0, "slim", "fitted", "crouch gait 1"),
+    "crouch2": Recording("opensim/angles-crouch2.mot", 0.0, "default", "loose", "crouch gait 2"),
+    "crouch3": Recording("opensim/angles-crouch3.mot", 0.0, "heavy", "coat", "crouch gait 3"),
+    "crouch4": Recording("opensim/angles-crouch4.mot", 0.0, "short", "skirt", "crouch gait 4"),
 }
+PATHOLOGICAL: tuple[str, ...] = ("crouch1", "crouch2", "crouch3", "crouch4")
 
 # The default plan: every recording through one oblique camera and two cameras (the targets),
 # plus one variant each, so side, frontal and occluded views are covered twice.
@@ -240,7 +248,12 @@ def load_recording(name: str, data: Path) -> Trajectory:
 
     if name not in _MOTIONS:
         rec = RECORDINGS[name]
-        tr = load_mocap(data / rec.path)
+        if rec.path.endswith(".mot"):
+            from gaitwatch.sim.angles import AngleWalkParams, load_angle_walk
+
+            tr = load_angle_walk(data / rec.path, AngleWalkParams(height_m=1.70, cycles=3))
+        else:
+            tr = load_mocap(data / rec.path)
         keep = tr.times >= tr.times[0] + rec.start_s
         _MOTIONS[name] = Trajectory(
             positions=tr.positions[keep],
@@ -248,6 +261,7 @@ def load_recording(name: str, data: Path) -> Trajectory:
             fps=tr.fps,
             source=tr.source,
             events=[],
+            stature_m=tr.stature_m,
         )
     return _MOTIONS[name]
 
@@ -1013,7 +1027,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 def make_plan(args) -> list[tuple[str, ViewSpec]]:
     if args.recordings or args.views:
         recs = (
-            [r.strip() for r in args.recordings.split(",")] if args.recordings else list(RECORDINGS)
+            [r.strip() for r in args.recordings.split(",")]
+            if args.recordings
+            else [r for r in RECORDINGS if r not in PATHOLOGICAL]
         )
         unknown = [r for r in recs if r not in RECORDINGS]
         if unknown:

@@ -42,6 +42,9 @@ class Trajectory:
     events : list of dict
         Laboratory gait events when the source carries them:
         ``{"side": "left"|"right", "type": "heel_strike"|"toe_off", "time_s": float}``.
+    stature_m : float or None
+        The subject's standing height when the source knows it (a synthesised walk); None:
+        estimate it from the key points when needed.
     """
 
     positions: np.ndarray
@@ -50,6 +53,7 @@ class Trajectory:
     fps: float | None = None
     source: str = ""
     events: list[dict] = field(default_factory=list)
+    stature_m: float | None = None
 
     def __post_init__(self) -> None:
         self.positions = np.asarray(self.positions, dtype=np.float64)
@@ -95,6 +99,7 @@ class Trajectory:
             fps=self.fps,
             source=self.source,
             events=list(self.events),
+            stature_m=self.stature_m,
         )
 
     def estimated_fps(self) -> float:
@@ -139,6 +144,7 @@ def resample(traj: Trajectory, fps: float, max_frames: int | None = None) -> Tra
         fps=float(fps),
         source=traj.source,
         events=events,
+        stature_m=traj.stature_m,
     )
 
 

@@ -274,6 +274,7 @@ def _clip_to_distance(traj: Trajectory, distance: float) -> Trajectory:
         fps=traj.fps,
         source=traj.source,
         events=[e for e in traj.events if e["time_s"] <= traj.times[n - 1]],
+        stature_m=traj.stature_m,
     )
 
 

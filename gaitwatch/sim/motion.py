@@ -315,6 +315,14 @@ def estimate_stature(positions: np.ndarray) -> float:
     raise MotionError("cannot estimate stature: neither head nor hips are known")
 
 
+def stature_of(traj: Trajectory) -> float:
+    """The subject's standing height: the trajectory's own when known (a synthesised walk),
+    else :func:`estimate_stature` of its key points."""
+    if traj.stature_m is not None:
+        return float(traj.stature_m)
+    return estimate_stature(traj.positions)
+
+
 def _fill_gaps(positions: np.ndarray, times: np.ndarray) -> np.ndarray:
     """Interpolate NaN gaps in time; all-NaN key points stay NaN.
 
@@ -391,6 +399,7 @@ def complete_for_render(traj: Trajectory) -> tuple[Trajectory, list[str]]:
             fps=traj.fps,
             source=traj.source,
             events=[e for e in traj.events if traj.times[first] <= e["time_s"] <= traj.times[last]],
+            stature_m=traj.stature_m,
         )
     pos = _fill_gaps(traj.positions, traj.times)
     missing = [j for j in range(N_KEYPOINTS) if not np.isfinite(pos[:, j]).all()]
@@ -400,7 +409,7 @@ def complete_for_render(traj: Trajectory) -> tuple[Trajectory, list[str]]:
         raise MotionError(
             f"{traj.source or 'motion'}: cannot render a body without {', '.join(lacking)}"
         )
-    S = estimate_stature(pos)
+    S = traj.stature_m if traj.stature_m is not None else estimate_stature(pos)
     lat, fwd = _body_axes(pos)
     mid_hip = 0.5 * (pos[:, L_HIP] + pos[:, R_HIP])
     if SACRUM in missing:
@@ -491,7 +500,7 @@ def scale_to_stature(traj: Trajectory, height_m: float) -> Trajectory:
 
     Every length, step and speed scales with the stature; the floor stays at z = 0.
     """
-    S = estimate_stature(traj.positions)
+    S = stature_of(traj)
     k = height_m / S
     o = np.nan_to_num(traj.positions[0, SACRUM].copy())
     o[2] = 0
@@ -502,6 +511,7 @@ def scale_to_stature(traj: Trajectory, height_m: float) -> Trajectory:
         fps=traj.fps,
         source=traj.source,
         events=list(traj.events),
+        stature_m=None if traj.stature_m is None else float(height_m),
     )
 
 
@@ -538,8 +548,9 @@ def parse_walk_spec(spec: str) -> WalkParams:
 
 def load_motion(spec: str) -> Trajectory:
     """A motion from the command line: ``walk[:...]`` (procedural, see :func:`parse_walk_spec`),
-    a ``JOINTS.csv``, or a motion-capture file read by ``gaitwatch.mocap.load_mocap``
-    (.c3d, .trc, .bvh)."""
+    a ``JOINTS.csv``, an OpenSim joint-angle cycle (``.mot``, walked by foot contact, see
+    :mod:`gaitwatch.sim.angles`; 1.70 m tall, three cycles), or a motion-capture file read by
+    ``gaitwatch.mocap.load_mocap`` (.c3d, .trc, .bvh)."""
     from pathlib import Path
 
     from gaitwatch.trajectory import read_joints_csv
@@ -551,6 +562,10 @@ def load_motion(spec: str) -> Trajectory:
         raise FileNotFoundError(f"{path}: no such file")
     if path.suffix.lower() == ".csv":
         return read_joints_csv(path)
+    if path.suffix.lower() == ".mot":
+        from gaitwatch.sim.angles import load_angle_walk
+
+        return load_angle_walk(path)
     try:
         from gaitwatch.mocap import load_mocap  # task D's readers
     except ImportError:

@@ -24,9 +24,9 @@ import numpy as np
 from gaitwatch.conventions import HEAD, L_HIP, L_TOE, R_HIP, R_TOE, SACRUM
 from gaitwatch.sim.motion import (
     complete_for_render,
-    estimate_stature,
     resample,
     scale_to_stature,
+    stature_of,
     walking_direction,
 )
 from gaitwatch.sim.person import BodyModel, Mesh
@@ -111,7 +111,7 @@ def _path_frame(truth: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
 def _extent_points(truth: Trajectory, step: int) -> np.ndarray:
     """Key points plus head top and toe tips of every ``step``-th frame, for framing."""
     p = truth.positions[::step]
-    S = estimate_stature(truth.positions)
+    S = stature_of(truth)
     top = p[:, HEAD] + 0.08 * S * UP
     return np.concatenate([p.reshape(-1, 3), top, p[:, L_TOE], p[:, R_TOE]])
 
@@ -234,7 +234,7 @@ def build_scene(
     truth = resample(filled, config.fps, config.max_frames)
     if len(truth) < 1:
         raise ValueError("the motion is shorter than one video frame")
-    stature = estimate_stature(truth.positions)
+    stature = stature_of(truth)
     body = resolve_body(config.body, config.clothing, stature, r_body)
     body = body.model_copy(update={"stature_m": stature})
     w, h = config.image_size

@@ -27,8 +27,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "simulate",
         help="render synthetic footage of a motion with ground truth, or advise on a camera",
         description=(
-            "Render a motion (a mocap file, a JOINTS.csv, or 'walk[:speed=..,cadence=..,"
-            "height=..,distance=..]' for a procedural walk) through cameras in a textured room. "
+            "Render a motion (a mocap file, a JOINTS.csv, an OpenSim joint-angle cycle .mot, "
+            "or 'walk[:speed=..,cadence=..,height=..,distance=..]' for a procedural walk) "
+            "through cameras in a textured room. "
             "Writes camI.mp4, camI.yaml, camI-background.png (camI-occluder.png with furniture "
             "in view), JOINTS.csv and scene.json into --out. With --advise and --camera: report "
             "where on the floor the camera can measure gait."
