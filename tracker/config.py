@@ -282,6 +282,16 @@ class InitConfig(_Model):
         Field(ge=0, le=3, description="Half-width of the x, y grid around the blob's floor point"),
     ] = 0.30
     walking_phases: Annotated[int, Field(ge=0, le=32)] = 8
+    flexed_phases: Annotated[
+        int,
+        Field(
+            ge=0,
+            le=32,
+            description="Phases of a flexed (crouch or stooped) walk: the walking phases with "
+            "the hips, knees, ankles and trunk flexed further (tracker.init.FLEXED_OFFSETS_DEG), "
+            "so that a crouched walker is found facing the right way. 0: none",
+        ),
+    ] = 8
     seated: bool = True
     refine_best: Annotated[
         int, Field(ge=0, le=50, description="Best candidates refined by the origin search")
@@ -404,7 +414,8 @@ class RedetectConfig(_Model):
     """Per-frame re-detection: a small initial search around the silhouettes' floor point.
 
     After the filter (and the leg-swap check), the initialisation search of ``tracker.init`` runs
-    on a reduced grid: every body configuration (standing, walking phases, seated) x positions
+    on a reduced grid: every body configuration (standing, walking phases, seated; the flexed
+    walking phases only with ``flexed_phases``) x positions
     within ``init.position_radius_m`` of the floor point under this frame's silhouettes x
     ``headings`` headings within ``span_deg`` of the estimate's; the ``refine_best`` best are
     refined by the origin search. When the best weighs more than the estimate by ``margin``, it
@@ -431,6 +442,15 @@ class RedetectConfig(_Model):
     refine_best: Annotated[
         int, Field(ge=0, le=50, description="Best candidates refined by the origin search")
     ] = 1
+    flexed_phases: Annotated[
+        int | None,
+        Field(
+            ge=0,
+            le=32,
+            description="Flexed-walk phases in re-detection's body configurations (0: none, "
+            "the per-frame search stays as cheap as before; None: init.flexed_phases)",
+        ),
+    ] = 0
     margin: Annotated[
         float,
         Field(ge=0, le=1, description="Adopt when heavier than the estimate by more than this"),

@@ -4,8 +4,11 @@ When there is no track (first frame, or after the track was lost) the tracker we
 plausible configurations:
 
 * body configurations: standing, ``walking_phases`` phases of a walking cycle (hip and knee
-  flexion of both legs half a cycle apart, arms swinging opposite), and seated when the joint
-  limits allow it; the root height of each is set so that the lowest foot point is on the floor;
+  flexion of both legs half a cycle apart, arms swinging opposite), ``flexed_phases`` phases of
+  a flexed walk (crouch gait, a stooped elderly walk: the walking cycle with the hips, knees,
+  ankles and trunk flexed further, :data:`FLEXED_OFFSETS_DEG`), and seated when the joint
+  limits allow it (each clamped to them); the root height of each is set so that the lowest
+  foot point is on the floor;
 * positions: a square grid of ``position_step_m`` within ``position_radius_m`` of the floor point
   under the silhouette (the bottom of each camera's silhouette back-projected to the floor with
   ``Camera.pixel_to_floor``; median over the cameras);
@@ -61,6 +64,18 @@ class InitResult:
         return float(self.weights[0])
 
 
+#: Flexion added to the walking phases for a flexed walk (degrees): crouch gait keeps the knees
+#: 30-80 deg flexed through the cycle with the hips flexed 20-60 deg (shared/data/opensim
+#: angles-crouch*.mot); the ankle dorsiflexes by the shank's extra lean (knee minus hip) so the
+#: stance foot stays flat, and the trunk leans forward over the flexed hips.
+FLEXED_OFFSETS_DEG: dict[str, float] = {
+    "hip_flexion": 20.0,
+    "knee_flexion": 40.0,
+    "ankle_flexion": 20.0,
+    "trunk_flexion": 15.0,
+}
+
+
 def walking_phase_angles(phase: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Approximate sagittal hip and knee flexion (degrees) over a gait cycle.
 
@@ -86,28 +101,37 @@ def body_configurations(
     -------
     poses : ndarray, shape (K, 31)
     labels : list of str
-        "standing", "walking-<phase>", "seated".
+        "standing", "walking-<phase>", "flexed-<phase>", "seated".
     """
     low, high = limits
     base = np.asarray(body.neutral_pose(0.0, 0.0, 0.0), dtype=np.float64)
     poses = [base.copy()]
     labels = ["standing"]
-    n = config.init.walking_phases
-    for k in range(n):
-        ph = k / n
-        hl, kl = walking_phase_angles(np.array([ph]))
-        hr, kr = walking_phase_angles(np.array([ph + 0.5]))
-        p = base.copy()
-        p[DOF["l_hip_flexion"]] = np.radians(hl[0])
-        p[DOF["l_knee_flexion"]] = np.radians(kl[0])
-        p[DOF["r_hip_flexion"]] = np.radians(hr[0])
-        p[DOF["r_knee_flexion"]] = np.radians(kr[0])
-        p[DOF["l_shoulder_flexion"]] = np.radians(-0.6 * (hr[0] - 10.0))
-        p[DOF["r_shoulder_flexion"]] = np.radians(-0.6 * (hl[0] - 10.0))
-        p[DOF["l_elbow_flexion"]] = np.radians(20.0)
-        p[DOF["r_elbow_flexion"]] = np.radians(20.0)
-        poses.append(p)
-        labels.append(f"walking-{ph:.3f}")
+    families = (
+        ("walking", config.init.walking_phases, None),
+        ("flexed", config.init.flexed_phases, FLEXED_OFFSETS_DEG),
+    )
+    for family, n, offsets in families:
+        for k in range(n):
+            ph = k / n
+            hl, kl = walking_phase_angles(np.array([ph]))
+            hr, kr = walking_phase_angles(np.array([ph + 0.5]))
+            p = base.copy()
+            p[DOF["l_hip_flexion"]] = np.radians(hl[0])
+            p[DOF["l_knee_flexion"]] = np.radians(kl[0])
+            p[DOF["r_hip_flexion"]] = np.radians(hr[0])
+            p[DOF["r_knee_flexion"]] = np.radians(kr[0])
+            p[DOF["l_shoulder_flexion"]] = np.radians(-0.6 * (hr[0] - 10.0))
+            p[DOF["r_shoulder_flexion"]] = np.radians(-0.6 * (hl[0] - 10.0))
+            p[DOF["l_elbow_flexion"]] = np.radians(20.0)
+            p[DOF["r_elbow_flexion"]] = np.radians(20.0)
+            if offsets is not None:
+                p[DOF["trunk_flexion"]] += np.radians(offsets["trunk_flexion"])
+                for side in ("l", "r"):
+                    for joint in ("hip_flexion", "knee_flexion", "ankle_flexion"):
+                        p[DOF[f"{side}_{joint}"]] += np.radians(offsets[joint])
+            poses.append(p)
+            labels.append(f"{family}-{ph:.3f}")
     seat = np.radians(85.0)
     hip, knee = DOF["l_hip_flexion"], DOF["l_knee_flexion"]
     if config.init.seated and high[hip] >= seat and high[knee] >= seat:

@@ -396,8 +396,11 @@ class Tracker:
         #: (body, its body configurations) of the last re-detection.
         self._redetect_configs: tuple[object, np.ndarray] | None = None
         #: The initial search's settings with re-detection's number of refined candidates.
+        redetect_init = {"refine_best": c.redetect.refine_best}
+        if c.redetect.flexed_phases is not None:
+            redetect_init["flexed_phases"] = c.redetect.flexed_phases
         self._redetect_config = c.model_copy(
-            update={"init": c.init.model_copy(update={"refine_best": c.redetect.refine_best})}
+            update={"init": c.init.model_copy(update=redetect_init)}
         )
         if self._estimate_girth:
             self._girth_bodies[self.body.shape_key] = self.body
