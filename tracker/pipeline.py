@@ -395,7 +395,8 @@ class Tracker:
         self._redetect_skipped = 0
         #: (body, its body configurations) of the last re-detection.
         self._redetect_configs: tuple[object, np.ndarray] | None = None
-        #: The initial search's settings with re-detection's number of refined candidates.
+        #: The initial search's settings with re-detection's number of refined candidates and
+        #: flexed-walk phases.
         redetect_init = {"refine_best": c.redetect.refine_best}
         if c.redetect.flexed_phases is not None:
             redetect_init["flexed_phases"] = c.redetect.flexed_phases
