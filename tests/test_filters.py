@@ -335,6 +335,26 @@ def test_ipf_coarse_to_fine_spends_the_same_budget() -> None:
     assert np.unique(f.particles, axis=0).shape[0] == 9 * 81
 
 
+def test_a_partial_sigma_table_keeps_the_other_defaults(tmp_path) -> None:
+    """``[ipf.sigma] l_ankle_flexion = 8`` in a settings file changes that DOF's noise only
+    (it used to zero every other DOF's)."""
+    from tracker.config import load_tracker_config
+
+    default = TrackerConfig()
+    path = tmp_path / "t.toml"
+    path.write_text("[ipf.sigma]\nl_ankle_flexion = 8.0\n[apf.sigma]\nroot_x = 0.05\n")
+    cfg = load_tracker_config(path)
+    for name, value in default.ipf.sigma.items():
+        assert cfg.ipf.sigma[name] == (8.0 if name == "l_ankle_flexion" else value)
+    assert cfg.ipf.sigma["root_yaw"] == 0.0  # the IPF's root stays the origin search's
+    assert cfg.apf.sigma == {**default.apf.sigma, "root_x": 0.05}
+    assert cfg.condensation.sigma == default.condensation.sigma
+    # a round trip through model_dump is the identity; unknown DOFs are still refused
+    assert TrackerConfig.model_validate(cfg.model_dump()) == cfg
+    with pytest.raises(ValueError, match="unknown DOF"):
+        IPFConfig(sigma={"l_ankel_flexion": 8.0})
+
+
 def test_ipf_method_settings_make_one_pass() -> None:
     f = IntervalParticleFilter(METHOD, limits=LIMITS, rng=np.random.default_rng(0))
     assert f.pass_sizes() == (9, 0)

@@ -65,6 +65,12 @@ def _default_sigmas() -> dict[str, float]:
     return s
 
 
+def _ipf_default_sigmas() -> dict[str, float]:
+    """The IPF's noise on R: :func:`_default_sigmas` with none on the root (the origin search
+    sets it)."""
+    return {**_default_sigmas(), **{DOF_NAMES[i]: 0.0 for i in ROOT_DOFS}}
+
+
 def _check_dof_keys(v: dict[str, float], what: str) -> dict[str, float]:
     unknown = sorted(set(v) - set(DOF_NAMES))
     if unknown:
@@ -100,11 +106,10 @@ class IPFConfig(_Model):
         dict[str, float],
         Field(
             description="White noise on R per DOF at 20 Hz (m or degrees); root DOFs are set "
-            "by the origin search and get no noise by default"
+            "by the origin search and get no noise by default. DOFs not given keep their "
+            "defaults"
         ),
-    ] = Field(
-        default_factory=lambda: {**_default_sigmas(), **{DOF_NAMES[i]: 0.0 for i in ROOT_DOFS}}
-    )
+    ] = Field(default_factory=lambda: _ipf_default_sigmas())
     interval_centre: Annotated[
         Literal["value", "velocity"],
         Field(
@@ -178,7 +183,8 @@ class IPFConfig(_Model):
     @field_validator("sigma")
     @classmethod
     def _sigma(cls, v: dict[str, float]) -> dict[str, float]:
-        return _check_dof_keys(v, "sigma")
+        # A partial table overrides those DOFs; the others keep their defaults.
+        return {**_ipf_default_sigmas(), **_check_dof_keys(v, "sigma")}
 
     @property
     def neighbours(self) -> int:
@@ -195,7 +201,8 @@ class CondensationConfig(_Model):
     """Condensation (Isard & Blake 1998): resample in proportion to weight, Gaussian diffusion."""
 
     sigma: Annotated[
-        dict[str, float], Field(description="Diffusion sigma per DOF at 20 Hz (m or degrees)")
+        dict[str, float],
+        Field(description="Diffusion sigma per DOF at 20 Hz (m or degrees); others: defaults"),
     ] = Field(default_factory=_default_sigmas)
     sigma_scale: Annotated[
         float, Field(gt=0, le=100, description="Multiplier applied to every sigma")
@@ -204,7 +211,8 @@ class CondensationConfig(_Model):
     @field_validator("sigma")
     @classmethod
     def _sigma(cls, v: dict[str, float]) -> dict[str, float]:
-        return _check_dof_keys(v, "sigma")
+        # A partial table overrides those DOFs; the others keep their defaults.
+        return {**_default_sigmas(), **_check_dof_keys(v, "sigma")}
 
 
 class APFConfig(_Model):
@@ -222,14 +230,18 @@ class APFConfig(_Model):
     ] = 0.5
     sigma: Annotated[
         dict[str, float],
-        Field(description="First-layer diffusion sigma per DOF at 20 Hz (m or degrees)"),
+        Field(
+            description="First-layer diffusion sigma per DOF at 20 Hz (m or degrees); "
+            "others: defaults"
+        ),
     ] = Field(default_factory=_default_sigmas)
     sigma_scale: Annotated[float, Field(gt=0, le=100)] = 1.5
 
     @field_validator("sigma")
     @classmethod
     def _sigma(cls, v: dict[str, float]) -> dict[str, float]:
-        return _check_dof_keys(v, "sigma")
+        # A partial table overrides those DOFs; the others keep their defaults.
+        return {**_default_sigmas(), **_check_dof_keys(v, "sigma")}
 
 
 class OriginSearchConfig(_Model):
