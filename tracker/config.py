@@ -109,7 +109,7 @@ class IPFConfig(_Model):
             "by the origin search and get no noise by default. DOFs not given keep their "
             "defaults"
         ),
-    ] = Field(default_factory=lambda: _ipf_default_sigmas())
+    ] = Field(default_factory=_ipf_default_sigmas)
     interval_centre: Annotated[
         Literal["value", "velocity"],
         Field(
