@@ -244,16 +244,12 @@ _MOTIONS: dict[str, Trajectory] = {}
 
 def load_recording(name: str, data: Path) -> Trajectory:
     """The recording from ``start_s`` on (times restart at 0)."""
-    from gaitwatch.mocap import load_mocap
+    from gaitwatch.sim.motion import load_motion
 
     if name not in _MOTIONS:
         rec = RECORDINGS[name]
-        if rec.path.endswith(".mot"):
-            from gaitwatch.sim.angles import AngleWalkParams, load_angle_walk
-
-            tr = load_angle_walk(data / rec.path, AngleWalkParams(height_m=1.70, cycles=3))
-        else:
-            tr = load_mocap(data / rec.path)
+        # mocap files, and joint-angle cycles (.mot) walked at 1.70 m for three cycles
+        tr = load_motion(str(data / rec.path))
         keep = tr.times >= tr.times[0] + rec.start_s
         _MOTIONS[name] = Trajectory(
             positions=tr.positions[keep],

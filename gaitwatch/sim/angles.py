@@ -42,6 +42,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from gaitwatch.conventions import (
     HEAD,
@@ -99,8 +100,8 @@ OPTIONAL = (
     "lumbar_rotation",
 )
 
-#: Feet whose lowest sole point is within this fraction of the stature of the lowest foot's can
-#: be the stance foot (about 2 cm).
+#: A stance foot whose lowest sole point rises more than this fraction of the stature above the
+#: other's has left the floor (about 2 cm); a quarter of it is a touch-down.
 CONTACT_BAND = 0.012
 
 # OpenSim frame (x forward, y up, z right) -> world (x forward, y left, z up)
@@ -121,16 +122,11 @@ class AngleWalkParams:
     contact_m: float = 0.01
 
 
-def _rot(axis: int, deg: np.ndarray) -> np.ndarray:
-    """Rotations (n, 3, 3) by ``deg`` about coordinate axis ``axis`` (0 x, 1 y, 2 z)."""
-    a = np.radians(np.asarray(deg, dtype=float))
-    c, s = np.cos(a), np.sin(a)
-    n = a.shape[0]
-    R = np.zeros((n, 3, 3))
-    i, j = [(1, 2), (2, 0), (0, 1)][axis]
-    R[:, axis, axis] = 1.0
-    R[:, i, i], R[:, i, j], R[:, j, i], R[:, j, j] = c, -s, s, c
-    return R
+def _euler(seq: str, *deg: np.ndarray) -> np.ndarray:
+    """Rotations (n, 3, 3) of the body-fixed (intrinsic) axis sequence ``seq`` ("ZXY": about z,
+    then the new x, then the new y), one angle series (degrees, shape (n,)) per axis."""
+    angles = np.column_stack([np.asarray(d, dtype=float) for d in deg])
+    return Rotation.from_euler(seq, angles, degrees=True).as_matrix()
 
 
 def _apply(R: np.ndarray, v) -> np.ndarray:
@@ -205,7 +201,7 @@ def angle_walk(table, params: AngleWalkParams | None = None, source: str = "") -
         raise MotionError(f"angle walk: height_m {p.height_m} outside 0.8..2.4 m")
     a, times, cycle_s = _cycle(table, p)
     n, S = times.size, p.height_m
-    pelvis = _rot(2, a["pelvis_tilt"]) @ _rot(0, a["pelvis_list"]) @ _rot(1, a["pelvis_rotation"])
+    pelvis = _euler("ZXY", a["pelvis_tilt"], a["pelvis_list"], a["pelvis_rotation"])
     pos = np.zeros((n, N_KEYPOINTS, 3))
     sole = {}
     for side, sgn, (ih, ik, ia, ihe, ito) in (
@@ -213,27 +209,22 @@ def angle_walk(table, params: AngleWalkParams | None = None, source: str = "") -
         ("l", -1.0, (L_HIP, L_KNEE, L_ANKLE, L_HEEL, L_TOE)),
     ):
         hip = _apply(pelvis, [0.0, 0.0, sgn * HIP_HALF * S])
-        thigh = (
-            pelvis
-            @ _rot(2, a[f"hip_flexion_{side}"])
-            @ _rot(0, sgn * a[f"hip_adduction_{side}"])
-            @ _rot(1, sgn * a[f"hip_rotation_{side}"])
+        thigh = pelvis @ _euler(
+            "ZXY",
+            a[f"hip_flexion_{side}"],
+            sgn * a[f"hip_adduction_{side}"],
+            sgn * a[f"hip_rotation_{side}"],
         )
         knee = hip + _apply(thigh, [0.0, -THIGH * S, 0.0])
-        shank = thigh @ _rot(2, a[f"knee_angle_{side}"])
+        shank = thigh @ _euler("Z", a[f"knee_angle_{side}"])
         ankle = knee + _apply(shank, [0.0, -SHANK * S, 0.0])
-        foot = shank @ _rot(2, a[f"ankle_angle_{side}"])
+        foot = shank @ _euler("Z", a[f"ankle_angle_{side}"])
         heel = ankle + _apply(foot, [-HEEL_BACK * S, -ANKLE_H * S, 0.0])
         toe = ankle + _apply(foot, [TOE_FWD * S, -ANKLE_H * S, 0.0])
         pos[:, ih], pos[:, ik], pos[:, ia], pos[:, ihe], pos[:, ito] = hip, knee, ankle, heel, toe
         sole[side] = (ihe, ito)
     pos[:, SACRUM] = _apply(pelvis, [-SACRUM_BACK * S, SACRUM_UP * S, 0.0])
-    trunk = (
-        pelvis
-        @ _rot(2, a["lumbar_extension"])
-        @ _rot(0, a["lumbar_bending"])
-        @ _rot(1, a["lumbar_rotation"])
-    )
+    trunk = pelvis @ _euler("ZXY", a["lumbar_extension"], a["lumbar_bending"], a["lumbar_rotation"])
     neck = _apply(trunk, [0.02 * S, HIP_TO_NECK * S, 0.0])
     pos[:, NECK] = neck
     pos[:, HEAD] = neck + _apply(trunk, [0.015 * S, NECK_TO_HEAD * S, 0.0])
@@ -244,9 +235,9 @@ def angle_walk(table, params: AngleWalkParams | None = None, source: str = "") -
         sh = neck + _apply(trunk, [0.0, -0.015 * S, sgn * SHOULDER_HALF * S])
         hip_flex = a[f"hip_flexion_{other}"]
         swing = 0.5 * (hip_flex - hip_flex.mean()) + 3.0
-        upper = trunk @ _rot(2, swing) @ _rot(0, -sgn * np.full(n, 8.0))
+        upper = trunk @ _euler("ZX", swing, np.full(n, -sgn * 8.0))
         el = sh + _apply(upper, [0.0, -UPPER_ARM * S, 0.0])
-        fore = upper @ _rot(2, np.full(n, 20.0))
+        fore = upper @ _euler("Z", np.full(n, 20.0))
         pos[:, i_sh], pos[:, i_el], pos[:, i_wr] = sh, el, el + _apply(fore, [0.0, -FOREARM * S, 0])
     pos = pos @ _TO_WORLD.T  # world axes; the pelvis still at the origin
 
