@@ -19,7 +19,9 @@ background PNGs, ``JOINTS.csv``) and read back, so the tracker sees codec artefa
 Diagnostics, to tell the tracker engineer where the error comes from: heading error (first
 frame and median; share of frames facing backwards), sacrum errors (horizontal, height bias,
 distance to the first camera: a one-camera depth slide), lowest-foot height error (feet sinking
-into or floating above the floor), hip width ratio, re-initialisations, silhouette IoU of the
+into or floating above the floor), hip width ratio, the mean signed knee flexion and foot
+pitch errors while the true foot stands flat on the floor (``gaitwatch.evaluation.stance_bias``:
+a knee bent too far, a toe pointing down), re-initialisations, silhouette IoU of the
 tracker's segmentation and of the estimate's model mask against the true person mask, and the
 tracker's body model **fitted to the true key points** (least squares over the 31 DOF within
 the joint limits, every ``--fit-step`` frames): its error is the floor set by the model's
@@ -578,9 +580,9 @@ def track(
 
 def diagnostics(truth: Trajectory, est: Trajectory, camera) -> dict[str, float]:
     """Heading error, sacrum errors, depth error along the first camera's line of sight, foot
-    height, and where the worst frame is (for the diagnosis)."""
+    height, flat-foot stance errors, and where the worst frame is (for the diagnosis)."""
     from gait.geometry import body_forward
-    from gaitwatch.evaluation import align
+    from gaitwatch.evaluation import align, stance_bias
 
     it, ie = align(truth, est)
     if not it.size:
@@ -612,6 +614,7 @@ def diagnostics(truth: Trajectory, est: Trajectory, camera) -> dict[str, float]:
         "second_half_mm": float(np.nanmean(err[len(err) // 2 :])),
         "worst_frame": int(truth.frames[it[int(np.nanargmax(lower))]]),
         "hip_width_ratio": float(np.nanmedian(width_e / width_t)),
+        **{f"stance_{k}": v for k, v in stance_bias(tp, ep).items()},
     }
 
 
@@ -713,7 +716,7 @@ def diag_table(runs: list[Run]) -> str:
     for r in runs:
         d = r.diag
         if not d:
-            rows.append([r.recording, r.view.label, r.filter] + ["-"] * 17)
+            rows.append([r.recording, r.view.label, r.filter] + ["-"] * 18)
             continue
         rows.append(
             [
@@ -729,6 +732,7 @@ def diag_table(runs: list[Run]) -> str:
                 f"{d['foot_dz_mm']:+.0f}",
                 f"{d['first_half_mm']:.0f} / {d['second_half_mm']:.0f}",
                 f"{d['hip_width_ratio']:.2f}",
+                f"{d['stance_knee_deg']:+.0f} / {d['stance_pitch_deg']:+.0f}",
                 str(r.reinits),
                 f"{d['seg_iou']:.2f}",
                 f"{d['est_iou']:.2f}",
@@ -753,6 +757,7 @@ def diag_table(runs: list[Run]) -> str:
             "lowest foot z err mm",
             "all mm 1st / 2nd half",
             "hip width est/true",
+            "flat-foot stance: knee / foot pitch err deg",
             "re-inits",
             "segmentation IoU",
             "estimate IoU",

@@ -19,6 +19,8 @@ ground truth of the same footage (a synthetic scene's ``JOINTS.csv``) and return
 * **Left/right leg swaps**: a scored frame counts as swapped when exchanging the estimate's
   left and right leg key points would lower its lower-limb error by more than
   ``swap_relative`` (30 %) of it *and* by more than ``swap_absolute_mm`` (50 mm).
+* **Flat-foot stance** (a diagnostic, :func:`stance_bias`): the mean signed knee flexion and
+  foot pitch errors over the frames where the true foot stands flat on the floor.
 * **Speed**: ms/frame and likelihood evaluations/frame come from the harness that ran the
   tracker (they are not measured here).
 
@@ -195,6 +197,56 @@ def leg_swaps(
         ms = np.nanmean(es, axis=1)
     gain = m - ms
     return np.isfinite(gain) & (gain > relative * m) & (gain > absolute_mm)
+
+
+def foot_pitch_deg(positions: np.ndarray, side: str) -> np.ndarray:
+    """Pitch of the foot's heel-to-toe line above the horizontal, degrees (toe up positive).
+
+    ``positions`` (K, 19, 3) metres, z up; ``side`` "left" or "right". NaN where a point is
+    unknown.
+    """
+    heel, toe = (L_HEEL, L_TOE) if side == "left" else (R_HEEL, R_TOE)
+    v = positions[:, toe] - positions[:, heel]
+    with np.errstate(invalid="ignore"):
+        return np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))
+
+
+def stance_bias(
+    truth_pos: np.ndarray,
+    est_pos: np.ndarray,
+    *,
+    heel_max_m: float = 0.04,
+    toe_max_m: float = 0.06,
+) -> dict[str, float]:
+    """Knee and foot errors while the true foot stands flat on the floor (a diagnostic).
+
+    A (frame, side) pair counts when the truth's heel is below ``heel_max_m`` and its toe below
+    ``toe_max_m`` (z up, floor at 0). Over those pairs, pooled over both sides:
+    ``knee_deg``, the mean signed knee flexion error (estimate - truth; positive: the estimate
+    bends the knee more, :func:`gait.kinematics.knee_flexion`); ``pitch_deg``, the mean signed
+    foot pitch error (:func:`foot_pitch_deg`; negative: the estimate's toe points down);
+    ``share``, the share of (frame, side) pairs that count. NaN where none count.
+
+    Parameters
+    ----------
+    truth_pos, est_pos : ndarray, shape (K, 19, 3)
+        Metres, matched frames.
+    """
+    from gait.kinematics import knee_flexion
+
+    knee, pitch, flat_all = [], [], []
+    for side, heel, toe in (("left", L_HEEL, L_TOE), ("right", R_HEEL, R_TOE)):
+        with np.errstate(invalid="ignore"):
+            flat = (truth_pos[:, heel, 2] < heel_max_m) & (truth_pos[:, toe, 2] < toe_max_m)
+            knee.append((knee_flexion(est_pos, side) - knee_flexion(truth_pos, side))[flat])
+        pitch.append((foot_pitch_deg(est_pos, side) - foot_pitch_deg(truth_pos, side))[flat])
+        flat_all.append(flat)
+    share = float(np.mean(np.concatenate(flat_all))) if truth_pos.shape[0] else math.nan
+    return {
+        "knee_deg": _nanmean(np.concatenate(knee)),
+        "pitch_deg": _nanmean(np.concatenate(pitch)),
+        "share": share,
+    }
 
 
 class _quiet:

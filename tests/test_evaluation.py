@@ -33,8 +33,10 @@ from gaitwatch.evaluation import (
     RIGHT_LEG,
     align,
     evaluate,
+    foot_pitch_deg,
     leg_swaps,
     pool,
+    stance_bias,
     swap_legs,
     truth_forward,
 )
@@ -149,6 +151,41 @@ def test_shank_rotation_gives_that_knee_angle_error(deg: float) -> None:
     chord = 2 * np.linalg.norm(shank, axis=1) * math.sin(ang / 2) * 1000
     assert m.per_joint_mm[R_ANKLE] == pytest.approx(chord.mean(), rel=1e-9)
     assert m.per_joint_mm[R_KNEE] == pytest.approx(0.0)
+
+
+@pytest.mark.parametrize("deg", [4.0, 15.0])
+def test_knees_bent_further_give_that_stance_bias(deg: float) -> None:
+    truth = walker()
+    p = truth.positions
+    est = p.copy()
+    for hip, knee, ankle, heel, toe in (
+        (L_HIP, L_KNEE, L_ANKLE, L_HEEL, L_TOE),
+        (R_HIP, R_KNEE, R_ANKLE, R_HEEL, R_TOE),
+    ):
+        axis = np.cross(p[:, knee] - p[:, hip], p[:, ankle] - p[:, knee])
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+        for j in (ankle, heel, toe):  # shank and foot turn about the knee: the knee bends
+            est[:, j] = p[:, knee] + rotate(p[:, j] - p[:, knee], axis, math.radians(deg))
+    flat = [
+        (p[:, h, 2] < 0.04) & (p[:, t, 2] < 0.06) for h, t in ((L_HEEL, L_TOE), (R_HEEL, R_TOE))
+    ]
+    assert 0 < np.mean(flat) < 1  # the walker has stance and swing
+    b = stance_bias(p, est)
+    assert b["share"] == pytest.approx(np.mean(flat))
+    assert b["knee_deg"] == pytest.approx(deg, abs=1e-9)
+    assert b["pitch_deg"] == pytest.approx(-deg, abs=1e-9)  # the toe points down
+    # only the frames with the foot flat count: a swing-only error is not seen
+    swing = p.copy()
+    off = ~flat[0]
+    swing[off, L_TOE] = swing[off, L_TOE] + [0.0, 0.0, 0.1]
+    assert stance_bias(p, swing)["pitch_deg"] == pytest.approx(0.0, abs=1e-12)
+    assert np.nanmax(np.abs(foot_pitch_deg(swing, "left") - foot_pitch_deg(p, "left"))) > 10
+
+
+def test_stance_bias_without_a_foot_on_the_floor() -> None:
+    p = walker().positions + [0.0, 0.0, 0.3]
+    b = stance_bias(p, p)
+    assert b["share"] == 0.0 and math.isnan(b["knee_deg"]) and math.isnan(b["pitch_deg"])
 
 
 def test_thigh_rotation_gives_that_hip_angle_error() -> None:
