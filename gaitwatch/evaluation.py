@@ -57,6 +57,7 @@ from gaitwatch.conventions import (
     R_TOE,
     R_WRIST,
     SACRUM,
+    side_index,
 )
 from gaitwatch.trajectory import Trajectory
 
@@ -205,8 +206,7 @@ def foot_pitch_deg(positions: np.ndarray, side: str) -> np.ndarray:
     ``positions`` (K, 19, 3) metres, z up; ``side`` "left" or "right". NaN where a point is
     unknown.
     """
-    heel, toe = (L_HEEL, L_TOE) if side == "left" else (R_HEEL, R_TOE)
-    v = positions[:, toe] - positions[:, heel]
+    v = positions[:, side_index(side, "toe")] - positions[:, side_index(side, "heel")]
     with np.errstate(invalid="ignore"):
         return np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))
 
@@ -235,7 +235,8 @@ def stance_bias(
     from gait.kinematics import knee_flexion
 
     knee, pitch, flat_all = [], [], []
-    for side, heel, toe in (("left", L_HEEL, L_TOE), ("right", R_HEEL, R_TOE)):
+    for side in _SIDES:
+        heel, toe = side_index(side, "heel"), side_index(side, "toe")
         with np.errstate(invalid="ignore"):
             flat = (truth_pos[:, heel, 2] < heel_max_m) & (truth_pos[:, toe, 2] < toe_max_m)
             knee.append((knee_flexion(est_pos, side) - knee_flexion(truth_pos, side))[flat])
