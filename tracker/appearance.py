@@ -45,7 +45,7 @@ import numba as nb
 import numpy as np
 
 from tracker import raster
-from tracker.body import CAPSULE_NAMES, BodyModel
+from tracker.body import CAPSULE_NAMES, HEM_CAPSULE_NAMES, BodyModel
 from tracker.camera import Camera
 from tracker.segmentation import downscale_mask
 
@@ -71,9 +71,12 @@ PART_CAPSULES: dict[str, tuple[str, ...]] = {
 
 
 def part_table(merge_sides: bool) -> tuple[tuple[str, ...], np.ndarray]:
-    """Part names and the part index of every capsule ``(C,)`` int64 (-1: not scored)."""
+    """Part names and the part index of every capsule ``(C,)`` int64 (-1: not scored).
+
+    ``C`` counts the hem capsules too (``tracker.body.HEM_CAPSULE_NAMES``, after the others):
+    they are not scored (their axis is the thigh's)."""
     names: list[str] = []
-    of_cap = np.full(len(CAPSULE_NAMES), -1, dtype=np.int64)
+    of_cap = np.full(len(CAPSULE_NAMES) + len(HEM_CAPSULE_NAMES), -1, dtype=np.int64)
     for part, caps in PART_CAPSULES.items():
         name = part.removeprefix("left_").removeprefix("right_") if merge_sides else part
         if name not in names:
@@ -294,6 +297,12 @@ class ColourCue:
         )
         self.cam_hw = np.array([[c.height, c.width] for c in self.cameras], dtype=np.int64)
         self.part_names, self.cap_part = part_table(config.merge_sides)
+        #: Part of every capsule for the occlusion test of the learning: a hem belongs to its
+        #: thigh (it does not hide the thigh, it is what shows of it).
+        self.cover_part = self.cap_part.copy()
+        for hem, thigh in zip(HEM_CAPSULE_NAMES, ("left_thigh", "right_thigh"), strict=True):
+            i = len(CAPSULE_NAMES) + HEM_CAPSULE_NAMES.index(hem)
+            self.cover_part[i] = self.cap_part[CAPSULE_NAMES.index(thigh)]
         unknown = set(config.parts or ()) - set(self.part_names)
         if unknown:
             raise ValueError(f"appearance.parts: unknown part(s) {', '.join(sorted(unknown))}")
@@ -400,15 +409,16 @@ class ColourCue:
         self.inv2s2 = 0.5 / s2
         self._n_scored = int(on.sum())
         self._maps = None
-        self._sel_cache: dict[int | None, np.ndarray] = {}
+        self._sel_cache: dict[tuple[int | None, int], np.ndarray] = {}
 
     def _sel(self, body: BodyModel, group: int | None) -> np.ndarray:
-        sel = self._sel_cache.get(group)
+        n = len(body.capsule_groups)
+        sel = self._sel_cache.get((group, n))
         if sel is None:
-            on = self._on
+            on = self._on[:n]
             if group is not None:
                 on = on & (body.capsule_groups == group)
-            sel = self._sel_cache[group] = np.flatnonzero(on).astype(np.int64)
+            sel = self._sel_cache[(group, n)] = np.flatnonzero(on).astype(np.int64)
         return sel
 
     def _score_maps(self) -> np.ndarray:
@@ -488,8 +498,9 @@ class ColourCue:
         pts = body.points(np.asarray(pose, dtype=np.float64)[None])[0]
         a3, b3 = pts[body.cap_a], pts[body.cap_b]
         ts = np.linspace(self.config.axis_margin, 1.0 - self.config.axis_margin, 7)
-        caps = np.flatnonzero(self.cap_part >= 0)
-        part = self.cap_part
+        n_caps = len(body.capsule_names)
+        caps = np.flatnonzero(self.cap_part[:n_caps] >= 0)
+        part = self.cover_part[:n_caps]
         colours: list[np.ndarray] = []
         parts: list[np.ndarray] = []
         for k, cam in enumerate(self.cameras):

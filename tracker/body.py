@@ -34,7 +34,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Final
+from typing import Final, Literal
 
 import numba as nb
 import numpy as np
@@ -333,6 +333,27 @@ GIRTH_PARTS: Final[dict[str, tuple[str, ...]]] = {
 }
 CAPSULE_NAMES: Final[tuple[str, ...]] = tuple(c.name for c in CAPSULES)
 N_CAPSULES: Final[int] = len(CAPSULES)
+#: Hem volumes (``BodyModel(hem=...)``), one per thigh after :data:`CAPSULES`.
+HEM_CAPSULE_NAMES: Final[tuple[str, ...]] = ("left_hem", "right_hem")
+#: Allowed hem lengths (fraction of the thigh) and hem radii (fraction of the height).
+HEM_LENGTH_RANGE: Final[tuple[float, float]] = (0.2, 1.5)
+HEM_RADIUS_RANGE: Final[tuple[float, float]] = (0.02, 0.2)
+
+
+def hem_capsules(length: float, radius: float) -> tuple[Capsule, ...]:
+    """The hem of a skirt, dress or coat as one flared volume per thigh.
+
+    From the hip joint (the thigh's own radius) down the thigh to ``length`` times its length,
+    where the radius is ``radius`` (fractions of the height, before the girth). The union of
+    the two spans the knees' spread plus a margin, like a hem that follows the legs; each
+    moves with its thigh, so the legs' factorisation of the likelihood stays exact.
+    """
+    th = (HIP_HEIGHT - KNEE_HEIGHT) * length
+    thigh = next(c for c in CAPSULES if c.name == "left_thigh")
+    return tuple(
+        Capsule(f"{side}_hem", f"{side}_thigh", (0, 0, 0), (0, 0, -th), thigh.ra, radius)
+        for side in ("left", "right")
+    )
 
 
 def _keypoint_table() -> dict[str, tuple[str, tuple[float, float, float]]]:
@@ -589,6 +610,7 @@ class BodyModel:
         girth: float = 1.0,
         part_girths: Mapping[str, float] | None = None,
         leg_length: float = 1.0,
+        hem: tuple[float, float] | None = None,
     ) -> None:
         if not np.isfinite(height_m) or not 0.5 <= height_m <= 2.5:
             raise ValueError(f"height_m must be between 0.5 and 2.5 metres, not {height_m}")
@@ -610,6 +632,20 @@ class BodyModel:
                 )
             if not np.isfinite(f) or not 0.5 <= f <= 3.0:
                 raise ValueError(f"part_girths[{name!r}] must be between 0.5 and 3.0, not {f}")
+        if hem is not None:
+            hl, hr = (float(v) for v in hem)
+            if not (
+                HEM_LENGTH_RANGE[0] <= hl <= HEM_LENGTH_RANGE[1]
+                and HEM_RADIUS_RANGE[0] <= hr <= HEM_RADIUS_RANGE[1]
+            ):
+                raise ValueError(
+                    f"hem must be (length {HEM_LENGTH_RANGE[0]}-{HEM_LENGTH_RANGE[1]} thighs, "
+                    f"radius {HEM_RADIUS_RANGE[0]}-{HEM_RADIUS_RANGE[1]} heights), not {hem}"
+                )
+            hem = (hl, hr)
+        #: Hem of a skirt or coat (length in thighs, radius in heights), or None.
+        self.hem: tuple[float, float] | None = hem
+        caps = CAPSULES + (hem_capsules(*hem) if hem is not None else ())
         self.height_m = float(height_m)
         self.girth = float(girth)
         self.leg_length = float(leg_length)
@@ -651,7 +687,7 @@ class BodyModel:
             frames.append(_F[fr])
             local.append(loc)
         cap_a, cap_b = [], []
-        for cap in CAPSULES:
+        for cap in caps:
             fr = _F[SEGMENT_FRAME[cap.segment]]
             cap_a.append(len(frames))
             frames.append(fr)
@@ -665,10 +701,12 @@ class BodyModel:
         self.cap_a = np.asarray(cap_a, dtype=np.int64)
         self.cap_b = np.asarray(cap_b, dtype=np.int64)
         part_of = {seg: n for n, segs in GIRTH_PARTS.items() for seg in segs}
-        factor = np.array([self.part_girths[part_of[c.segment]] for c in CAPSULES])
-        self.radii = np.array([[c.ra, c.rb] for c in CAPSULES]) * H * self.girth * factor[:, None]
-        self.capsule_names = CAPSULE_NAMES
-        seg_of = [c.segment for c in CAPSULES]
+        factor = np.array([self.part_girths[part_of[c.segment]] for c in caps])
+        self.radii = np.array([[c.ra, c.rb] for c in caps]) * H * self.girth * factor[:, None]
+        if hem is not None:  # the hem's radius is the clothing's, not the thigh's
+            self.radii[N_CAPSULES:, 1] = hem[1] * H * self.girth
+        self.capsule_names = tuple(c.name for c in caps)
+        seg_of = [c.segment for c in caps]
         self.left_leg_capsules = np.array(
             [i for i, s in enumerate(seg_of) if s in LEFT_LEG_SEGMENTS], dtype=np.int64
         )
@@ -677,11 +715,11 @@ class BodyModel:
         )
         legs = set(self.left_leg_capsules.tolist()) | set(self.right_leg_capsules.tolist())
         self.base_capsules = np.array(
-            [i for i in range(N_CAPSULES) if i not in legs], dtype=np.int64
+            [i for i in range(len(caps)) if i not in legs], dtype=np.int64
         )
         # (C, 2) point indices of the capsule ends; (C,) 0 = base, 1 = left leg, 2 = right leg
         self.cap_ab = np.ascontiguousarray(np.stack([self.cap_a, self.cap_b], axis=1))
-        self.capsule_groups = np.zeros(N_CAPSULES, dtype=np.int64)
+        self.capsule_groups = np.zeros(len(caps), dtype=np.int64)
         self.capsule_groups[self.left_leg_capsules] = 1
         self.capsule_groups[self.right_leg_capsules] = 2
         # frame and point masks of points(group=...): groups 0, 1, 2, and -1 = everything
@@ -798,9 +836,10 @@ class BodyModel:
         girth: float | None = None,
         part_girths: Mapping[str, float] | None = None,
         leg_length: float | None = None,
+        hem: tuple[float, float] | None | Literal["keep"] = "keep",
     ) -> BodyModel:
-        """The same person (height) with another girth, part factors and/or leg length (the
-        others kept)."""
+        """The same person (height) with another girth, part factors, leg length and/or hem
+        (the others kept; ``hem=None`` removes the hem)."""
         parts = dict(self.part_girths)
         parts.update(part_girths or {})
         return type(self)(
@@ -808,17 +847,20 @@ class BodyModel:
             girth=self.girth if girth is None else girth,
             part_girths=parts,
             leg_length=self.leg_length if leg_length is None else leg_length,
+            hem=self.hem if hem == "keep" else hem,
         )
 
     @property
     def shape_key(self) -> tuple[float, ...]:
-        """Girth, the part factors (GIRTH_PARTS order), then the leg length: equal keys, equal
-        bodies."""
-        return (self.girth, *self.part_girths.values(), self.leg_length)
+        """Girth, the part factors (GIRTH_PARTS order), the leg length, then the hem (length and
+        radius, 0 for none): equal keys, equal bodies."""
+        return (self.girth, *self.part_girths.values(), self.leg_length, *(self.hem or (0.0, 0.0)))
 
     def __repr__(self) -> str:
         parts = {n: f for n, f in self.part_girths.items() if f != 1.0}
         extra = f", part_girths={parts}" if parts else ""
         if self.leg_length != 1.0:
             extra += f", leg_length={self.leg_length}"
+        if self.hem is not None:
+            extra += f", hem={self.hem}"
         return f"BodyModel(height_m={self.height_m}, girth={self.girth}{extra})"

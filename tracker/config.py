@@ -371,6 +371,25 @@ class InitConfig(_Model):
             "summed over those frames. One value: that factor on every part, nothing estimated",
         ),
     ] = (0.65, 0.8, 1.0, 1.25, 1.5, 1.8, 2.2)
+    hems: Annotated[
+        tuple[tuple[float, float], ...],
+        Field(
+            max_length=12,
+            description="Hems of a skirt, dress or coat tried with the part factors (over "
+            "part_girth_frames frames; no hem is always a candidate): (length in thigh "
+            "lengths, radius in heights), one flared volume per thigh "
+            "(tracker.body.hem_capsules). Empty: no hem, nothing estimated",
+        ),
+    ] = ((0.5, 0.06), (0.5, 0.09), (1.0, 0.06), (1.0, 0.09))
+    hem_margin: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="A hem is taken only when its summed best weights exceed no hem's by "
+            "this fraction",
+        ),
+    ] = 0.01
     part_girth_frames: Annotated[
         int,
         Field(

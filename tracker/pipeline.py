@@ -292,8 +292,11 @@ class Tracker:
         self._girth_bodies: dict[tuple[float, ...], object] = {}
         self._girth_scores: dict[float, float] = {}
         #: Part factors (config.init.part_girths), estimated over the first tracked frames.
-        self._estimate_parts = self._estimate_girth and len(c.init.part_girths) > 1
+        self._estimate_parts = self._estimate_girth and (
+            len(c.init.part_girths) > 1 or len(c.init.hems) > 0
+        )
         self._part_scores: dict[tuple[str, float], float] = {}
+        self._hem_scores: dict[tuple[float, float] | None, float] = {}
         #: Relative leg length (config.init.leg_lengths), estimated over the first tracked frames.
         self._estimate_legs = (
             self._estimate_girth
@@ -749,10 +752,11 @@ class Tracker:
         parts: dict[str, float] | None = None,
         base=None,
         leg_length: float | None = None,
+        hem="keep",
     ):
-        """``base`` (default: the current body) with another girth, part factors and/or leg
-        length (cached)."""
-        body = (base or self.body).with_shape(girth, parts, leg_length)
+        """``base`` (default: the current body) with another girth, part factors, leg length
+        and/or hem (cached)."""
+        body = (base or self.body).with_shape(girth, parts, leg_length, hem)
         return self._girth_bodies.setdefault(body.shape_key, body)
 
     def _shape_score(self, body, candidates: np.ndarray) -> float:
@@ -780,19 +784,34 @@ class Tracker:
         cand = self._shape_candidates(pose)
         current = self.body
         best: dict[str, float] = {}
+        hem = current.hem
         with _single_thread():
-            for part in GIRTH_PARTS:
-                for g in factors:
-                    w = self._shape_score(self._girth_body(parts={part: g}, base=current), cand)
-                    self._part_scores[(part, g)] = self._part_scores.get((part, g), 0.0) + w
-                best[part] = max(factors, key=lambda g, p=part: self._part_scores[(p, g)])
-        self._set_body(self._girth_body(parts=best, base=current))
+            if len(factors) > 1:
+                for part in GIRTH_PARTS:
+                    for g in factors:
+                        body = self._girth_body(parts={part: g}, base=current)
+                        w = self._shape_score(body, cand)
+                        self._part_scores[(part, g)] = self._part_scores.get((part, g), 0.0) + w
+                    best[part] = max(factors, key=lambda g, p=part: self._part_scores[(p, g)])
+            hems = self.config.init.hems
+            if hems:
+                options = [None, *(tuple(h) for h in hems)]
+                for h in options:
+                    w = self._shape_score(self._girth_body(base=current, hem=h), cand)
+                    self._hem_scores[h] = self._hem_scores.get(h, 0.0) + w
+                hem = max(options, key=lambda h: self._hem_scores[h])
+                if (
+                    self._hem_scores[hem]
+                    <= (1.0 + self.config.init.hem_margin) * self._hem_scores[None]
+                ):
+                    hem = None
+        self._set_body(self._girth_body(parts=best, base=current, hem=hem))
         self._part_frames_left -= 1
         if self._part_frames_left <= 0:
             self._estimate_parts = False
             if not self._estimate_girth:  # both fixed: keep only the body in use
                 self._girth_bodies = {self.body.shape_key: self.body}
-            log.info("body part girths %s fit the silhouettes best", best)
+            log.info("body part girths %s, hem %s fit the silhouettes best", best, hem)
 
     def _update_leg_length(
         self, pose: np.ndarray, weight: float, dt: float
