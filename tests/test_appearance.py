@@ -165,6 +165,24 @@ def test_factored_equals_unfactored_with_the_cue(body, cameras, scene) -> None:
     np.testing.assert_allclose(w, sil * (s / 0.8) ** cue.config.beta, rtol=1e-12)
 
 
+def test_a_hem_is_not_scored_and_does_not_hide_its_thigh(body, cameras, scene) -> None:
+    skirted = body.with_shape(hem=(1.0, 0.09))
+    plain, cue = _learned_cue(body, cameras, scene), _learned_cue(skirted, cameras, scene)
+    # the hem shares the thigh's axis, so it does not hide the thigh: learned as before
+    thigh = cue.part_names.index("thigh")
+    assert cue.frames_learned[thigh] == plain.frames_learned[thigh] == 1
+    np.testing.assert_allclose(cue.ref, plain.ref)
+    # the hem's axis is the thigh's: not scored, so both bodies score a pose alike
+    poses = np.stack([scene["pose"], scene["pose"]])
+    poses[1, DOF["l_knee_flexion"]] += np.radians(40)
+    np.testing.assert_allclose(
+        cue.scores(skirted, skirted.points(poses)), cue.scores(body, body.points(poses))
+    )
+    np.testing.assert_allclose(
+        cue.scores(body, body.points(poses)), plain.scores(body, body.points(poses))
+    )
+
+
 def test_off_or_without_a_frame_gives_the_silhouette_weights(body, cameras, scene) -> None:
     lik = SilhouetteLikelihood(body, cameras)
     lik.set_silhouettes(scene["masks"])

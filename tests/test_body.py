@@ -250,6 +250,43 @@ def test_leg_length_with_shape_and_bad_values() -> None:
             BodyModel(1.7, leg_length=bad)
 
 
+def test_hem_adds_one_flared_volume_per_thigh() -> None:
+    from tracker.body import CAPSULE_NAMES, HEM_CAPSULE_NAMES
+
+    a = BodyModel(1.7, girth=1.2, part_girths={"thighs": 1.5}, leg_length=1.1)
+    b = a.with_shape(hem=(0.8, 0.07))
+    assert b.hem == (0.8, 0.07) and a.hem is None
+    assert b.capsule_names == CAPSULE_NAMES + HEM_CAPSULE_NAMES
+    assert b.radii.shape == (N_CAPSULES + 2, 2)
+    np.testing.assert_array_equal(b.radii[:N_CAPSULES], a.radii)  # the body is unchanged
+    pose = a.neutral_pose()
+    pose[DOF["l_hip_flexion"]], pose[DOF["r_hip_flexion"]] = np.radians(25), np.radians(-10)
+    pose[DOF["l_knee_flexion"]] = np.radians(30)
+    np.testing.assert_array_equal(b.forward(pose), a.forward(pose))
+    ka = a.forward(pose)[0]
+    ca, cb = b.capsules(pose[None])
+    thigh_len = b.segment_lengths["thigh"]
+    for k, side in enumerate(("left", "right")):
+        i = N_CAPSULES + k
+        thigh = CAPSULE_NAMES.index(f"{side}_thigh")
+        # from the hip joint down the thigh's axis to 0.8 of its length, flaring to 0.07 H
+        assert ca[0, i] == pytest.approx(ka[KP[f"{side}_hip"]])
+        expect = ka[KP[f"{side}_hip"]] + 0.8 * (ka[KP[f"{side}_knee"]] - ka[KP[f"{side}_hip"]])
+        assert cb[0, i] == pytest.approx(expect)
+        assert np.linalg.norm(cb[0, i] - ca[0, i]) == pytest.approx(0.8 * thigh_len)
+        assert b.radii[i, 0] == pytest.approx(b.radii[thigh, 0])
+        assert b.radii[i, 1] == pytest.approx(0.07 * 1.7 * 1.2)
+        assert b.capsule_groups[i] == k + 1  # moves with its leg: the factorisation holds
+        assert i in (b.left_leg_capsules if k == 0 else b.right_leg_capsules)
+    # with_shape keeps the hem unless told; None removes it
+    assert b.with_shape(girth=1.0).hem == (0.8, 0.07)
+    assert b.with_shape(hem=None).shape_key == a.shape_key
+    assert b.shape_key != a.shape_key and "hem=(0.8, 0.07)" in repr(b) and "hem" not in repr(a)
+    for bad in ((0.1, 0.07), (0.8, 0.5), (float("nan"), 0.07)):
+        with pytest.raises(ValueError, match="hem"):
+            BodyModel(1.7, hem=bad)
+
+
 @pytest.mark.parametrize(("h", "g"), [(0.2, 1.0), (3.0, 1.0), (float("nan"), 1.0), (1.7, 0.0)])
 def test_bad_body_parameters(h: float, g: float) -> None:
     with pytest.raises(ValueError, match="height_m|girth"):

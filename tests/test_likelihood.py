@@ -198,7 +198,11 @@ def test_weight_from_counts() -> None:
         weight_from_counts(c, "dice")  # type: ignore[arg-type]
 
 
-def test_weights_factored_equals_expanded(body: BodyModel, cameras: list[Camera]) -> None:
+@pytest.mark.parametrize("hem", [None, (1.0, 0.08)])
+def test_weights_factored_equals_expanded(
+    body: BodyModel, cameras: list[Camera], hem: tuple[float, float] | None
+) -> None:
+    body = body.with_shape(hem=hem)  # a skirt's hem moves with the thighs: still exact
     rng = np.random.default_rng(4)
     m, na, nb_ = 6, 5, 4
     base = _random_poses(body, rng, m)

@@ -222,6 +222,7 @@ def test_leg_length_estimated_with_two_cameras(clip: dict) -> None:
         init={
             "girths": (1.0,),
             "part_girths": (1.0,),
+            "hems": (),
             "leg_lengths": lengths,
             "leg_length_frames": 3,
         },
@@ -309,6 +310,41 @@ def test_part_girths_estimated_over_the_first_tracked_frames(clip: dict) -> None
     for i in range(3):
         tracker.process(i, i / FPS, frames[i])
     assert set(tracker.body.part_girths.values()) == {1.2}
+
+
+def test_hem_estimated_for_a_skirt_and_not_for_trousers(clip: dict) -> None:
+    """A person in a knee-length skirt gets a hem; a person in trousers does not (the hem must
+    beat no hem by init.hem_margin). Empty init.hems: nothing estimated."""
+    from tracker.body import BodyModel
+    from tracker.likelihood import SilhouetteLikelihood
+    from tracker.pipeline import Tracker
+    from tracker.synthetic import render_clip
+
+    config = TrackerConfig(ipf=IPFConfig(kept=9), init={"part_girth_frames": 3})
+    assert len(config.init.hems) == 4
+    found = {}
+    for name, hem in (("trousers", None), ("skirt", (1.0, 0.09))):
+        person = SilhouetteLikelihood(BodyModel(1.70, hem=hem), clip["cams"])
+        frames = list(render_clip(person, clip["poses"][:6], clip["bgs"], np.random.default_rng(1)))
+        tracker = Tracker(
+            clip["cams"], config, rng=np.random.default_rng(0), backgrounds=clip["bgs"]
+        )
+        seen = []
+        for i in range(6):
+            assert tracker.process(i, i / FPS, frames[i]).has_pose
+            assert tracker.likelihood.body is tracker.body
+            seen.append(tracker.body.hem)
+        assert seen[0] is None  # the initialised frame is not scored
+        assert seen[3] == seen[4] == seen[5]  # fixed after part_girth_frames tracked frames
+        found[name] = seen[-1]
+    print(f"estimated hems: {found}")
+    assert found["trousers"] is None
+    assert found["skirt"] is not None and found["skirt"][0] >= 1.0
+    off = config.model_copy(update={"init": config.init.model_copy(update={"hems": ()})})
+    tracker = Tracker(clip["cams"], off, rng=np.random.default_rng(0), backgrounds=clip["bgs"])
+    for i in range(5):
+        tracker.process(i, i / FPS, frames[i])
+    assert tracker.body.hem is None
 
 
 def _tracker_after_first_frame(clip: dict, **config):

@@ -297,12 +297,6 @@ class ColourCue:
         )
         self.cam_hw = np.array([[c.height, c.width] for c in self.cameras], dtype=np.int64)
         self.part_names, self.cap_part = part_table(config.merge_sides)
-        #: Part of every capsule for the occlusion test of the learning: a hem belongs to its
-        #: thigh (it does not hide the thigh, it is what shows of it).
-        self.cover_part = self.cap_part.copy()
-        for hem, thigh in zip(HEM_CAPSULE_NAMES, ("left_thigh", "right_thigh"), strict=True):
-            i = len(CAPSULE_NAMES) + HEM_CAPSULE_NAMES.index(hem)
-            self.cover_part[i] = self.cap_part[CAPSULE_NAMES.index(thigh)]
         unknown = set(config.parts or ()) - set(self.part_names)
         if unknown:
             raise ValueError(f"appearance.parts: unknown part(s) {', '.join(sorted(unknown))}")
@@ -500,7 +494,7 @@ class ColourCue:
         ts = np.linspace(self.config.axis_margin, 1.0 - self.config.axis_margin, 7)
         n_caps = len(body.capsule_names)
         caps = np.flatnonzero(self.cap_part[:n_caps] >= 0)
-        part = self.cover_part[:n_caps]
+        part = self.cap_part[:n_caps]
         colours: list[np.ndarray] = []
         parts: list[np.ndarray] = []
         for k, cam in enumerate(self.cameras):
