@@ -313,15 +313,17 @@ def test_part_girths_estimated_over_the_first_tracked_frames(clip: dict) -> None
 
 
 def test_hem_estimated_for_a_skirt_and_not_for_trousers(clip: dict) -> None:
-    """A person in a knee-length skirt gets a hem; a person in trousers does not (the hem must
-    beat no hem by init.hem_margin). Empty init.hems: nothing estimated."""
+    """With init.hems given, a person in a knee-length skirt gets a hem; a person in trousers
+    does not (the hem must beat no hem by init.hem_margin). Empty init.hems (the default):
+    nothing estimated."""
     from tracker.body import BodyModel
     from tracker.likelihood import SilhouetteLikelihood
     from tracker.pipeline import Tracker
     from tracker.synthetic import render_clip
 
-    config = TrackerConfig(ipf=IPFConfig(kept=9), init={"part_girth_frames": 3})
-    assert len(config.init.hems) == 4
+    hems = ((0.5, 0.06), (0.5, 0.09), (1.0, 0.06), (1.0, 0.09))
+    assert TrackerConfig().init.hems == ()  # opt-in
+    config = TrackerConfig(ipf=IPFConfig(kept=9), init={"part_girth_frames": 3, "hems": hems})
     found = {}
     for name, hem in (("trousers", None), ("skirt", (1.0, 0.09))):
         person = SilhouetteLikelihood(BodyModel(1.70, hem=hem), clip["cams"])

@@ -380,7 +380,7 @@ class InitConfig(_Model):
             "lengths, radius in heights), one flared volume per thigh "
             "(tracker.body.hem_capsules). Empty: no hem, nothing estimated",
         ),
-    ] = ((0.5, 0.06), (0.5, 0.09), (1.0, 0.06), (1.0, 0.09))
+    ] = ()
     hem_margin: Annotated[
         float,
         Field(
