@@ -804,8 +804,9 @@ def _paired(ipf: list[Run], other: list[Run]) -> str:
     d = d[np.isfinite(d)]
     if d.size < 2:
         return "per-scene difference: too few scenes"
-    se = float(d.std(ddof=1) / np.sqrt(d.size))
-    return f"per-scene difference {float(d.mean()):+.0f} +- {se:.0f} mm (mean +- standard error)"
+    mean, se = float(d.mean()), float(d.std(ddof=1) / np.sqrt(d.size))
+    noise = "; within two standard errors of 0" if abs(mean) < 2 * se else ""
+    return f"per-scene difference {mean:+.0f} +- {se:.0f} mm (mean +- standard error{noise})"
 
 
 def targets(runs: list[Run]) -> tuple[str, list[tuple[str, bool | None]]]:

@@ -287,6 +287,21 @@ def test_hem_adds_one_flared_volume_per_thigh() -> None:
             BodyModel(1.7, hem=bad)
 
 
+def test_hem_config_is_checked_at_the_edge() -> None:
+    """The tracker's configuration rejects the hems the body model would (before tracking)."""
+    from pydantic import ValidationError
+
+    from tracker.body import HEM_LENGTH_RANGE, HEM_RADIUS_RANGE
+    from tracker.config import _HEM_RANGES, TrackerConfig
+
+    assert _HEM_RANGES == (HEM_LENGTH_RANGE, HEM_RADIUS_RANGE)
+    ok = TrackerConfig(init={"hems": [[1.0, 0.08], [0.5, 0.06]]})
+    assert ok.init.hems == ((1.0, 0.08), (0.5, 0.06))
+    for bad in ([[2.0, 0.08]], [[1.0, 0.3]], [[1.0]], [[float("nan"), 0.08]]):
+        with pytest.raises(ValidationError, match="hems"):
+            TrackerConfig(init={"hems": bad})
+
+
 @pytest.mark.parametrize(("h", "g"), [(0.2, 1.0), (3.0, 1.0), (float("nan"), 1.0), (1.7, 0.0)])
 def test_bad_body_parameters(h: float, g: float) -> None:
     with pytest.raises(ValueError, match="height_m|girth"):

@@ -282,6 +282,9 @@ _SHAPE_FACTOR_RANGES: dict[str, tuple[float, float]] = {
     "part_girths": (0.5, 3.0),
     "leg_lengths": (0.8, 1.2),
 }
+#: Allowed hem lengths (thighs) and radii (heights): tracker.body.HEM_LENGTH_RANGE and
+#: HEM_RADIUS_RANGE.
+_HEM_RANGES: tuple[tuple[float, float], tuple[float, float]] = ((0.2, 1.5), (0.02, 0.2))
 
 
 class InitConfig(_Model):
@@ -438,6 +441,18 @@ class InitConfig(_Model):
         lo, hi = _SHAPE_FACTOR_RANGES[info.field_name]
         if any(not lo <= f <= hi for f in v):
             raise ValueError(f"{info.field_name} must be within {lo}..{hi}")
+        return v
+
+    @field_validator("hems")
+    @classmethod
+    def _hems(cls, v: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
+        (l0, l1), (r0, r1) = _HEM_RANGES
+        for length, radius in v:
+            if not (l0 <= length <= l1 and r0 <= radius <= r1):
+                raise ValueError(
+                    f"hems: ({length}, {radius}) must be (length {l0}..{l1} thighs, "
+                    f"radius {r0}..{r1} heights)"
+                )
         return v
 
 
