@@ -24,6 +24,7 @@ from gaitwatch.mocap import jointcentres as jc
 from gaitwatch.mocap.common import (
     align_walking_to_x,
     detect_vertical,
+    floor_levelling,
     parse_event_label,
     to_z_up,
     up_rotation,
@@ -38,6 +39,58 @@ pytestmark = pytest.mark.filterwarnings("ignore:All-NaN slice:RuntimeWarning")
 # --------------------------------------------------------------------------------------------
 # Synthetic: frames, regressions, events, parsers
 # --------------------------------------------------------------------------------------------
+
+
+def _feet_on_floor(slope_x: float, slope_y: float = 0.0, length: float = 4.0, turn: bool = False):
+    """Two feet (T, 3) walking along x (and back across y when ``turn``) on the floor
+    z = slope_x * x + slope_y * y: each foot stands for 60 % of a 1.1 s cycle, swings 5-12 cm
+    high, half a cycle apart. Returns the feet and, per foot, its standing samples (bool)."""
+    t = np.arange(0.0, length / 1.2, 1 / 100)
+    x = 1.2 * t - 1.0
+    y = 0.3 * np.sin(t) + (2.0 * np.clip(t - length / 2.4, 0, None) if turn else 0.0)
+    feet, stance = [], []
+    for phase, side in ((0.0, 0.1), (0.55, -0.1)):
+        c = (t / 1.1 + phase) % 1.0
+        lift = np.where(c < 0.6, 0.0, 0.05 + 0.07 * np.sin(np.pi * (c - 0.6) / 0.4))
+        fx, fy = x, y + side
+        feet.append(np.column_stack([fx, fy, slope_x * fx + slope_y * fy + lift]))
+        stance.append(c < 0.6)
+    return feet, stance
+
+
+@pytest.mark.parametrize("slope_deg", [0.6, 1.1, -2.0])
+def test_floor_levelling_levels_a_tilted_walk(slope_deg):
+    feet, stance = _feet_on_floor(np.tan(np.radians(slope_deg)))
+    rot, tilt = floor_levelling(feet)
+    assert rot is not None and tilt == pytest.approx(abs(slope_deg), abs=0.05)
+    assert np.allclose(rot @ rot.T, np.eye(3)) and np.isclose(np.linalg.det(rot), 1.0)
+    # Standing feet are level afterwards: within 2 mm over the whole walk.
+    level = [f @ rot.T for f in feet]
+    stand = np.concatenate([f[s] for f, s in zip(level, stance, strict=True)])
+    assert np.ptp(stand[:, 2]) < 0.002
+    # A rotation: distances between points are kept.
+    d0 = np.linalg.norm(feet[0] - feet[1], axis=1)
+    assert np.allclose(np.linalg.norm(level[0] - level[1], axis=1), d0)
+
+
+def test_floor_levelling_sideways_slope_on_a_walk_that_turns():
+    feet, _ = _feet_on_floor(0.0, np.tan(np.radians(1.0)), length=6.0, turn=True)
+    rot, tilt = floor_levelling(feet)
+    assert rot is not None and tilt == pytest.approx(1.0, abs=0.1)
+    up = rot @ np.array([0.0, -np.tan(np.radians(1.0)), 1.0])
+    assert np.degrees(np.arccos(up[2] / np.linalg.norm(up))) < 0.1  # the normal is now +z
+
+
+def test_floor_levelling_leaves_level_floors_ramps_and_treadmills(caplog):
+    assert floor_levelling(_feet_on_floor(0.0)[0]) == (None, pytest.approx(0.0, abs=0.02))
+    # 10 mm over 4 m is within the tolerance: untouched.
+    assert floor_levelling(_feet_on_floor(0.01 / 4.0)[0])[0] is None
+    rot, tilt = floor_levelling(_feet_on_floor(np.tan(np.radians(8.0)))[0])
+    assert rot is None and tilt == pytest.approx(8.0, abs=0.2)
+    assert "ramp" in caplog.text
+    # Walking on the spot (a treadmill): no slope can be told.
+    assert floor_levelling(_feet_on_floor(0.1, length=0.5)[0]) == (None, 0.0)
+    assert floor_levelling([]) == (None, 0.0)
 
 
 @pytest.mark.parametrize("axis", [0, 1, 2])
@@ -621,6 +674,12 @@ def test_cmu_bvh(shared_data, rel):
             assert 0.3 < L.mean() < 0.55 and np.ptp(L) < 1e-9  # rigid skeleton
         assert np.percentile(P[:, KP[f"{side}_heel"], 2], 2) == pytest.approx(0.0, abs=0.01)
         assert np.percentile(P[:, KP[f"{side}_toe"], 2], 2) == pytest.approx(0.0, abs=0.01)
+    # The floor is level over the whole walk (07_04 and 07_06 are recorded 1.1 deg tilted): in
+    # each quarter of the recording the lowest sole point's low heights are on the floor.
+    sole = P[:, [KP[k] for k in ("left_heel", "right_heel", "left_toe", "right_toe")], 2].min(1)
+    lows = [np.percentile(q, 10) for q in np.array_split(sole, 4)]
+    assert max(abs(v) for v in lows) < 0.012
+    assert t.mapping_info["floor_levelled"] == (rel in ("07_04.bvh", "07_06.bvh"))
     width = np.median(P[:, KP["left_hip"]] - P[:, KP["right_hip"]], axis=0)
     assert 0.12 < np.hypot(*width[:2]) < 0.25 and abs(width[2]) < 0.03
     if rel != "75_19.bvh":

@@ -30,6 +30,7 @@ from gaitwatch.mocap.common import (
     MocapFormatError,
     detect_vertical,
     estimate_floor,
+    floor_levelling,
     to_z_up,
 )
 from gaitwatch.mocap.common import align_walking_to_x as _align_walking
@@ -484,7 +485,12 @@ def load_bvh(
         )
     axis, sign = vertical
     P = to_z_up(P, axis, sign)
-    foot = [P[:, KP[k], 2] for k in ("left_ankle", "right_ankle", "left_toe", "right_toe")]
+    feet = ("left_ankle", "right_ankle", "left_toe", "right_toe")
+    levelling, tilt = floor_levelling([P[:, KP[k]] for k in feet])
+    if levelling is not None:
+        P = P @ levelling.T
+        log.info("%s: floor tilted by %.2f degrees, levelled", path, tilt)
+    foot = [P[:, KP[k], 2] for k in feet]
     floor = estimate_floor(foot)
     P[..., 2] -= floor
     for side in ("left", "right"):
@@ -510,6 +516,8 @@ def load_bvh(
         "vertical_axis": "xyz"[axis],
         "vertical_sign": sign,
         "floor_lab_m": floor,
+        "floor_tilt_deg": tilt,
+        "floor_levelled": levelling is not None,
         "scale_m_per_unit": scale,
         "cmu_skeleton": cmu,
         "dropped_first_frame": bool(first),

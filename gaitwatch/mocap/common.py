@@ -131,6 +131,99 @@ def estimate_floor(foot_z: Iterable[np.ndarray], percentile: float = 1.0) -> flo
     return low - 0.012
 
 
+#: Bin width (m) along the walk for the floor's lower envelope (:func:`floor_levelling`).
+FLOOR_BIN_M = 0.3
+#: Shortest walk (m along its main direction) over which a floor slope is estimated.
+FLOOR_MIN_TRAVEL_M = 1.0
+#: A floor whose height changes by less than this (m) over the walk is left as it is.
+FLOOR_MIN_RISE_M = 0.015
+#: Steeper than this (degrees) is no calibration error (a ramp, stairs): left as it is.
+FLOOR_MAX_TILT_DEG = 5.0
+
+
+def floor_levelling(foot: Iterable[np.ndarray]) -> tuple[np.ndarray | None, float]:
+    """The rotation that makes a slightly tilted laboratory floor level, from the feet.
+
+    In a walk the lowest foot point of each frame rests on the floor for most of the gait cycle,
+    so the low envelope of those points along the walk traces the floor. Some recordings' vertical
+    axis is a little off (CMU 07_04 and 07_06: the standing foot rises about 55 mm over the walk,
+    a 1.1 degree tilt), which would leave a walker floating above or sinking into a level floor.
+
+    The lowest foot point per frame is binned by its position along the walk's main horizontal
+    direction (:data:`FLOOR_BIN_M` bins, at least 5 frames each); each bin's 10th-percentile
+    height is its floor sample. A line (a plane when the walk also spans 1 m across) fitted to
+    the samples gives the slope. Nothing is changed (``None``) when the walk is shorter than
+    :data:`FLOOR_MIN_TRAVEL_M`, the floor rises less than :data:`FLOOR_MIN_RISE_M` over it, or it
+    is steeper than :data:`FLOOR_MAX_TILT_DEG` (a ramp or stairs, not a calibration error).
+
+    Parameters
+    ----------
+    foot : iterable of ndarray, shape (T, 3)
+        Foot points (markers or joints) in a z-up frame, metres, NaN where missing.
+
+    Returns
+    -------
+    (rotation, tilt_deg)
+        A proper rotation (3, 3) about the origin that maps the floor's normal onto +z (apply as
+        ``points @ rotation.T``), or None; and the floor's tilt in degrees (0.0 when not
+        measured).
+    """
+    arrs = [np.asarray(f, float) for f in foot]
+    if not arrs:
+        return None, 0.0
+    stack = np.stack(arrs, axis=1)  # (T, K, 3)
+    z = np.where(np.isfinite(stack).all(axis=2), stack[..., 2], np.inf)
+    k = np.argmin(z, axis=1)
+    low = stack[np.arange(len(stack)), k]
+    low = low[np.isfinite(low).all(axis=1)]
+    if len(low) < 20:
+        return None, 0.0
+    xy = low[:, :2] - low[:, :2].mean(axis=0)
+    _, sv, vt = np.linalg.svd(xy, full_matrices=False)
+    u = xy @ vt[0]
+    v = xy @ vt[1]
+    extent = float(u.max() - u.min())
+    if extent < FLOOR_MIN_TRAVEL_M:
+        return None, 0.0
+    edges = np.arange(u.min(), u.max() + FLOOR_BIN_M, FLOOR_BIN_M)
+    which = np.digitize(u, edges)
+    rows = []
+    for b in np.unique(which):
+        sel = which == b
+        if sel.sum() < 5:
+            continue
+        zb = low[sel, 2]
+        h = float(np.percentile(zb, 10))
+        near = zb <= h + 1e-9
+        rows.append((float(np.median(u[sel][near])), float(np.median(v[sel][near])), h))
+    if len(rows) < 3:
+        return None, 0.0
+    ru, rv, rz = np.array(rows).T
+    across = float(v.max() - v.min()) >= FLOOR_MIN_TRAVEL_M and np.ptp(rv) >= 0.5
+    a_mat = np.column_stack([ru, rv, np.ones_like(ru)] if across else [ru, np.ones_like(ru)])
+    coef = np.linalg.lstsq(a_mat, rz, rcond=None)[0]
+    su, sv_ = float(coef[0]), float(coef[1]) if across else 0.0
+    # Slope (dz per metre) along the lab's x and y, then the floor's unit normal.
+    grad = su * vt[0] + sv_ * vt[1]
+    tilt = float(np.degrees(np.arctan(np.hypot(*grad))))
+    rise = float(np.hypot(*grad)) * extent
+    if rise < FLOOR_MIN_RISE_M:
+        return None, tilt
+    if tilt > FLOOR_MAX_TILT_DEG:
+        log.warning(
+            "the floor under the feet slopes by %.1f degrees: taken for a ramp, not levelled", tilt
+        )
+        return None, tilt
+    n = np.array([-grad[0], -grad[1], 1.0])
+    n /= np.linalg.norm(n)
+    axis = np.cross(n, [0.0, 0.0, 1.0])
+    s, c = float(np.linalg.norm(axis)), float(n[2])
+    axis /= s
+    kx = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    rot = np.eye(3) + s * kx + (1 - c) * (kx @ kx)
+    return rot, tilt
+
+
 def low_height(z: np.ndarray, percentile: float = 2.0) -> float:
     """A robust minimum (low percentile) of heights, NaN-aware; NaN if nothing is finite."""
     z = np.asarray(z, float)

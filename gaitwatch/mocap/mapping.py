@@ -26,6 +26,7 @@ from gaitwatch.mocap.common import (
     align_walking_to_x,
     detect_vertical,
     estimate_floor,
+    floor_levelling,
     sort_events,
     to_z_up,
 )
@@ -482,6 +483,13 @@ def markers_to_trajectory(
     axis, sign = vertical if vertical is not None else roles_vertical(r, source)
     r = {k: to_z_up(v, axis, sign) for k, v in r.items()}
     clusters = {k: to_z_up(v, axis, sign) for k, v in resolve_clusters(markers).items()}
+    levelling, tilt = floor_levelling(
+        [v for k, v in r.items() if k.split("_", 1)[-1] in FOOT_ROLES]
+    )
+    if levelling is not None:
+        r = {k: v @ levelling.T for k, v in r.items()}
+        clusters = {k: v @ levelling.T for k, v in clusters.items()}
+        log.info("%s: floor tilted by %.2f degrees, levelled", source, tilt)
     foot = [v[..., 2] for k, v in r.items() if k.split("_", 1)[-1] in FOOT_ROLES]
     floor = estimate_floor(foot)
     for v in list(r.values()) + list(clusters.values()):
@@ -490,7 +498,15 @@ def markers_to_trajectory(
     P, info = roles_to_keypoints(r, T, o, clusters)
     if align_walking:
         P, _ = align_walking_to_x(P)
-    info.update({"vertical_axis": "xyz"[axis], "vertical_sign": sign, "floor_lab_m": floor})
+    info.update(
+        {
+            "vertical_axis": "xyz"[axis],
+            "vertical_sign": sign,
+            "floor_lab_m": floor,
+            "floor_tilt_deg": tilt,
+            "floor_levelled": levelling is not None,
+        }
+    )
     missing = [k for k in KP if k not in info["methods"]]
     if missing:
         log.info("%s: no markers for %s (NaN)", source, ", ".join(missing))
