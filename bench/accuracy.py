@@ -28,6 +28,9 @@ the joint limits, every ``--fit-step`` frames): its error is the floor set by th
 proportions, and its likelihood weight against the estimate's tells a search failure (the fit
 weighs more) from a likelihood ambiguity (a wrong pose weighs more).
 
+``bench/search_ceiling.py`` runs the same scenes with footage of the tracker's own body fitted
+to the truth instead: the error left there is the search's alone.
+
 ms/frame is the median wall time of ``Tracker.process`` per frame (segmentation, blob choice,
 origin search, filter, forward kinematics; decoding excluded), on whatever load the machine has;
 the backward pass (``revise``) runs inside the frame that ends a track's settling, so the
