@@ -61,24 +61,28 @@ def _feet_on_floor(slope_x: float, slope_y: float = 0.0, length: float = 4.0, tu
 @pytest.mark.parametrize("slope_deg", [0.6, 1.1, -2.0])
 def test_floor_levelling_levels_a_tilted_walk(slope_deg):
     feet, stance = _feet_on_floor(np.tan(np.radians(slope_deg)))
-    rot, tilt = floor_levelling(feet)
-    assert rot is not None and tilt == pytest.approx(abs(slope_deg), abs=0.05)
-    assert np.allclose(rot @ rot.T, np.eye(3)) and np.isclose(np.linalg.det(rot), 1.0)
-    # Standing feet are level afterwards: within 2 mm over the whole walk.
-    level = [f @ rot.T for f in feet]
-    stand = np.concatenate([f[s] for f, s in zip(level, stance, strict=True)])
-    assert np.ptp(stand[:, 2]) < 0.002
-    # A rotation: distances between points are kept.
+    level, tilt = floor_levelling(feet)
+    assert level is not None and tilt == pytest.approx(abs(slope_deg), abs=0.05)
+    # Standing feet are level afterwards (within 2 mm over the whole walk), at the height the
+    # floor has at the origin (0 here: the turn's pivot).
+    out = [level(f) for f in feet]
+    stand = np.concatenate([f[s] for f, s in zip(out, stance, strict=True)])
+    assert np.ptp(stand[:, 2]) < 0.002 and abs(stand[:, 2].mean()) < 0.002
+    # A proper rotation: distances are kept and a right-handed triple stays right-handed.
     d0 = np.linalg.norm(feet[0] - feet[1], axis=1)
-    assert np.allclose(np.linalg.norm(level[0] - level[1], axis=1), d0)
+    assert np.allclose(np.linalg.norm(out[0] - out[1], axis=1), d0)
+    e = level(np.vstack([np.zeros(3), np.eye(3)]))
+    basis = e[1:] - e[0]
+    assert np.allclose(basis @ basis.T, np.eye(3)) and np.isclose(np.linalg.det(basis), 1.0)
 
 
 def test_floor_levelling_sideways_slope_on_a_walk_that_turns():
     feet, _ = _feet_on_floor(0.0, np.tan(np.radians(1.0)), length=6.0, turn=True)
-    rot, tilt = floor_levelling(feet)
-    assert rot is not None and tilt == pytest.approx(1.0, abs=0.1)
-    up = rot @ np.array([0.0, -np.tan(np.radians(1.0)), 1.0])
-    assert np.degrees(np.arccos(up[2] / np.linalg.norm(up))) < 0.1  # the normal is now +z
+    level, tilt = floor_levelling(feet)
+    assert level is not None and tilt == pytest.approx(1.0, abs=0.1)
+    # A step up the floor's slope becomes horizontal.
+    step = level(np.array([[0.0, 0.0, 0.0], [0.0, 1.0, np.tan(np.radians(1.0))]]))
+    assert abs(step[1, 2] - step[0, 2]) < 0.002
 
 
 def test_floor_levelling_leaves_level_floors_ramps_and_treadmills(caplog):

@@ -488,7 +488,7 @@ def load_bvh(
     feet = ("left_ankle", "right_ankle", "left_toe", "right_toe")
     levelling, tilt = floor_levelling([P[:, KP[k]] for k in feet])
     if levelling is not None:
-        P = P @ levelling.T
+        P = levelling(P)
         log.info("%s: floor tilted by %.2f degrees, levelled", path, tilt)
     foot = [P[:, KP[k], 2] for k in feet]
     floor = estimate_floor(foot)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import re
 import warnings
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 
@@ -141,7 +141,9 @@ FLOOR_MIN_RISE_M = 0.015
 FLOOR_MAX_TILT_DEG = 5.0
 
 
-def floor_levelling(foot: Iterable[np.ndarray]) -> tuple[np.ndarray | None, float]:
+def floor_levelling(
+    foot: Iterable[np.ndarray],
+) -> tuple[Callable[[np.ndarray], np.ndarray] | None, float]:
     """The rotation that makes a slightly tilted laboratory floor level, from the feet.
 
     In a walk the lowest foot point of each frame rests on the floor for most of the gait cycle,
@@ -151,8 +153,10 @@ def floor_levelling(foot: Iterable[np.ndarray]) -> tuple[np.ndarray | None, floa
 
     The lowest foot point per frame is binned by its position along the walk's main horizontal
     direction (:data:`FLOOR_BIN_M` bins, at least 5 frames each); each bin's 10th-percentile
-    height is its floor sample. A line (a plane when the walk also spans 1 m across) fitted to
-    the samples gives the slope. Nothing is changed (``None``) when the walk is shorter than
+    height is its floor sample. A line (a plane when the walk and its samples also spread 1 m
+    and 0.5 m across) fitted to the samples gives the slope. The rotation turns about the
+    laboratory's origin, which calibration puts on the floor, as :func:`estimate_floor` then
+    assumes. Nothing is changed (``None``) when the walk is shorter than
     :data:`FLOOR_MIN_TRAVEL_M`, the floor rises less than :data:`FLOOR_MIN_RISE_M` over it, or it
     is steeper than :data:`FLOOR_MAX_TILT_DEG` (a ramp or stairs, not a calibration error).
 
@@ -163,10 +167,10 @@ def floor_levelling(foot: Iterable[np.ndarray]) -> tuple[np.ndarray | None, floa
 
     Returns
     -------
-    (rotation, tilt_deg)
-        A proper rotation (3, 3) about the origin that maps the floor's normal onto +z (apply as
-        ``points @ rotation.T``), or None; and the floor's tilt in degrees (0.0 when not
-        measured).
+    (levelling, tilt_deg)
+        A function that turns points (..., 3) level (the proper rotation about the origin that
+        maps the floor's normal onto +z), or None; and the floor's tilt in degrees (0.0 when
+        not measured).
     """
     arrs = [np.asarray(f, float) for f in foot]
     if not arrs:
@@ -179,7 +183,7 @@ def floor_levelling(foot: Iterable[np.ndarray]) -> tuple[np.ndarray | None, floa
     if len(low) < 20:
         return None, 0.0
     xy = low[:, :2] - low[:, :2].mean(axis=0)
-    _, sv, vt = np.linalg.svd(xy, full_matrices=False)
+    _, _, vt = np.linalg.svd(xy, full_matrices=False)
     u = xy @ vt[0]
     v = xy @ vt[1]
     extent = float(u.max() - u.min())
@@ -202,9 +206,9 @@ def floor_levelling(foot: Iterable[np.ndarray]) -> tuple[np.ndarray | None, floa
     across = float(v.max() - v.min()) >= FLOOR_MIN_TRAVEL_M and np.ptp(rv) >= 0.5
     a_mat = np.column_stack([ru, rv, np.ones_like(ru)] if across else [ru, np.ones_like(ru)])
     coef = np.linalg.lstsq(a_mat, rz, rcond=None)[0]
-    su, sv_ = float(coef[0]), float(coef[1]) if across else 0.0
+    su, sv = float(coef[0]), float(coef[1]) if across else 0.0
     # Slope (dz per metre) along the lab's x and y, then the floor's unit normal.
-    grad = su * vt[0] + sv_ * vt[1]
+    grad = su * vt[0] + sv * vt[1]
     tilt = float(np.degrees(np.arctan(np.hypot(*grad))))
     rise = float(np.hypot(*grad)) * extent
     if rise < FLOOR_MIN_RISE_M:
@@ -221,7 +225,11 @@ def floor_levelling(foot: Iterable[np.ndarray]) -> tuple[np.ndarray | None, floa
     axis /= s
     kx = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
     rot = np.eye(3) + s * kx + (1 - c) * (kx @ kx)
-    return rot, tilt
+
+    def level(points: np.ndarray) -> np.ndarray:
+        return np.asarray(points, float) @ rot.T
+
+    return level, tilt
 
 
 def low_height(z: np.ndarray, percentile: float = 2.0) -> float:

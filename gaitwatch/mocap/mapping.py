@@ -487,8 +487,8 @@ def markers_to_trajectory(
         [v for k, v in r.items() if k.split("_", 1)[-1] in FOOT_ROLES]
     )
     if levelling is not None:
-        r = {k: v @ levelling.T for k, v in r.items()}
-        clusters = {k: v @ levelling.T for k, v in clusters.items()}
+        r = {k: levelling(v) for k, v in r.items()}
+        clusters = {k: levelling(v) for k, v in clusters.items()}
         log.info("%s: floor tilted by %.2f degrees, levelled", source, tilt)
     foot = [v[..., 2] for k, v in r.items() if k.split("_", 1)[-1] in FOOT_ROLES]
     floor = estimate_floor(foot)
