@@ -15,6 +15,7 @@ import warnings
 from collections.abc import Callable, Iterable
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from gaitwatch.errors import InputError
 
@@ -218,13 +219,9 @@ def floor_levelling(
             "the floor under the feet slopes by %.1f degrees: taken for a ramp, not levelled", tilt
         )
         return None, tilt
-    n = np.array([-grad[0], -grad[1], 1.0])
-    n /= np.linalg.norm(n)
-    axis = np.cross(n, [0.0, 0.0, 1.0])
-    s, c = float(np.linalg.norm(axis)), float(n[2])
-    axis /= s
-    kx = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    rot = np.eye(3) + s * kx + (1 - c) * (kx @ kx)
+    # The shortest rotation that takes the floor's normal onto +z.
+    normal = np.array([-grad[0], -grad[1], 1.0])
+    rot = Rotation.align_vectors([[0.0, 0.0, 1.0]], [normal])[0].as_matrix()
 
     def level(points: np.ndarray) -> np.ndarray:
         return np.asarray(points, float) @ rot.T
