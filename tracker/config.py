@@ -787,6 +787,50 @@ class RefineConfig(_Model):
         return _check_dof_keys(v, "range_overrides")
 
 
+class ArmSearchConfig(_Model):
+    """Grid search of each arm after the filter (:mod:`tracker.arms`): shoulder flexion,
+    abduction and rotation and elbow flexion around their current values, the rest held."""
+
+    enabled: Annotated[bool, Field(description="Search the arms after the filter")] = True
+    min_cameras: Annotated[
+        int,
+        Field(
+            ge=1,
+            le=16,
+            description="Search only with at least this many cameras: through one camera the "
+            "arms took silhouette pixels the legs and depth needed and the lower limbs lost "
+            "accuracy (docs/tracker.md)",
+        ),
+    ] = 2
+    flexion_values: Annotated[
+        int, Field(ge=1, le=15, description="Shoulder flexion values per grid")
+    ] = 7
+    range_flexion_deg: Annotated[
+        float, Field(ge=0, le=90, description="+- range of shoulder flexion")
+    ] = 30.0
+    range_abduction_deg: Annotated[
+        float, Field(ge=0, le=90, description="+- range of shoulder abduction (0: not searched)")
+    ] = 10.0
+    range_rotation_deg: Annotated[
+        float, Field(ge=0, le=90, description="+- range of shoulder rotation (0: not searched)")
+    ] = 20.0
+    range_elbow_deg: Annotated[
+        float, Field(ge=0, le=90, description="+- range of elbow flexion (0: not searched)")
+    ] = 25.0
+    levels: Annotated[
+        int, Field(ge=1, le=6, description="Searches with shrinking ranges per frame")
+    ] = 2
+    shrink: Annotated[float, Field(gt=0, lt=1, description="Range factor per level")] = 0.5
+
+    @property
+    def grid_size(self) -> int:
+        """Poses weighed per arm and level."""
+        n = 3 ** sum(
+            r > 0 for r in (self.range_abduction_deg, self.range_rotation_deg, self.range_elbow_deg)
+        )
+        return self.flexion_values * n
+
+
 class OcclusionConfig(_Model):
     """Furniture in front of the walk, learned from the silhouettes (:mod:`tracker.occlusion`):
     regions of the empty scene's image that the silhouette's lower ends lie on, frame after
@@ -1026,6 +1070,7 @@ class TrackerConfig(_Model):
     heading_check: HeadingCheckConfig = Field(default_factory=HeadingCheckConfig)
     leg_swap: LegSwapConfig = Field(default_factory=LegSwapConfig)
     refine: RefineConfig = Field(default_factory=RefineConfig)
+    arms: ArmSearchConfig = Field(default_factory=ArmSearchConfig)
     appearance: AppearanceConfig = Field(default_factory=AppearanceConfig)
     collision: CollisionConfig = Field(default_factory=CollisionConfig)
     occlusion: OcclusionConfig = Field(default_factory=OcclusionConfig)

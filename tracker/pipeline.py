@@ -18,7 +18,9 @@ I/O: the caller decodes video and writes the pose log) and returns a :class:`Fra
    over the first tracked frames.
 4. Otherwise the **origin search** (:mod:`tracker.origin`) moves the root, holding the previous
    body-part configuration, then the **filter** (IPF, APF or Condensation) updates the body parts,
-   then (``origin.after_filter``) the origin is searched again holding the new legs.
+   then, with two cameras or more, each arm is searched on a grid (:mod:`tracker.arms`,
+   ``config.arms``) and (``origin.after_filter``) the origin is searched again holding the new
+   legs.
 5. **Leg-swap check**: the heaviest particles are weighed with their legs exchanged; a heavier
    one becomes the estimate and joins the particle set (``config.leg_swap``).
    **Re-detection** (``config.redetect``): a reduced initial search around this frame's
@@ -51,6 +53,7 @@ import cv2
 import numpy as np
 
 from gaitwatch.conventions import L_ANKLE, L_HEEL, L_TOE, R_ANKLE, R_HEEL, R_TOE, SACRUM
+from tracker.arms import search_arms
 from tracker.body import GIRTH_PARTS
 from tracker.config import TrackerConfig
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, wrap_angle
@@ -1174,11 +1177,26 @@ class Tracker:
             self.filter.inject(res.pose[None], np.array([res.weight]))
         return res.pose.copy(), float(res.weight)
 
+    def _search_arms(self, pose: np.ndarray, weight: float) -> tuple[np.ndarray, float]:
+        """Grid search of each arm (:mod:`tracker.arms`, ``arms``); joins the particles when
+        heavier. Off with fewer than ``arms.min_cameras`` cameras."""
+        ac = self.config.arms
+        if not ac.enabled or len(self.cameras) < ac.min_cameras:
+            return pose, weight
+        with _single_thread():
+            res = search_arms(self._lik, pose, weight, ac, limits=self.limits)
+        if not res.weight > weight:
+            return pose, weight
+        self.filter.inject(res.pose[None], np.array([res.weight]))
+        return res.pose.copy(), float(res.weight)
+
     def _refine_origin(
         self, pose: np.ndarray, weight: float, dt: float
     ) -> tuple[np.ndarray, float]:
-        """Search the origin again holding the filter's new body parts; adopt if heavier
-        (``origin.after_filter``; otherwise the pose as it is)."""
+        """After a filter's estimate: search the arms (:meth:`_search_arms`), then the origin
+        again holding the new body parts; each is adopted if heavier (``origin.after_filter``;
+        otherwise the pose as it is)."""
+        pose, weight = self._search_arms(pose, weight)
         c = self.config
         if not (c.origin.enabled and c.origin.after_filter):
             return pose, weight
