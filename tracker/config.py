@@ -821,6 +821,13 @@ class ArmSearchConfig(_Model):
         int, Field(ge=1, le=6, description="Searches with shrinking ranges per frame")
     ] = 2
     shrink: Annotated[float, Field(gt=0, lt=1, description="Range factor per level")] = 0.5
+    inject: Annotated[
+        bool,
+        Field(
+            description="Add the searched pose to the filter's particles (the next frame starts "
+            "from its arms); otherwise only the output carries them"
+        ),
+    ] = True
 
     @property
     def grid_size(self) -> int:

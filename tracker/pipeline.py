@@ -1187,7 +1187,8 @@ class Tracker:
             res = search_arms(self._lik, pose, weight, ac, limits=self.limits)
         if not res.weight > weight:
             return pose, weight
-        self.filter.inject(res.pose[None], np.array([res.weight]))
+        if ac.inject:
+            self.filter.inject(res.pose[None], np.array([res.weight]))
         return res.pose.copy(), float(res.weight)
 
     def _refine_origin(
