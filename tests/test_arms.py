@@ -132,7 +132,7 @@ def test_grid_and_config() -> None:
     with pytest.raises(TrackerConfigError):
         parse_tracker_config({"arms": {"levels": 0}})
     c = TrackerConfig()
-    assert c.arms.enabled and c.arms.min_cameras == 2
+    assert not c.arms.enabled and c.arms.min_cameras == 2  # opt-in: its cost (docs/tracker.md)
 
 
 @pytest.fixture(scope="module")
@@ -164,11 +164,26 @@ def _track(clip: dict, arms: dict, n_cams: int = 2):
 
 def test_pipeline_searches_the_arms_with_two_cameras(walking_frames: dict) -> None:
     off = _track(walking_frames, {"enabled": False})
-    on = _track(walking_frames, {})
+    on = _track(walking_frames, {"enabled": True})
     assert on.evaluations >= off.evaluations + ArmSearchConfig().levels * 2 * 189
     assert on.weight >= off.weight - 0.02
     # one camera: below min_cameras the search does not run (same evaluations as off)
     one_off = _track(walking_frames, {"enabled": False}, n_cams=1)
-    one_on = _track(walking_frames, {}, n_cams=1)
+    one_on = _track(walking_frames, {"enabled": True}, n_cams=1)
     assert one_on.evaluations == one_off.evaluations
     np.testing.assert_array_equal(one_on.pose, one_off.pose)
+
+
+def test_weights_moving_equals_whole_renderings(body) -> None:
+    """One arm's variants weighed with the rest of the body rendered once: the same weights,
+    bit for bit, as rendering every pose whole."""
+    truth = _truth(body)
+    lik = _likelihood(body, truth)
+    rng = np.random.default_rng(5)
+    for side, first in (("l", DOF["l_shoulder_flexion"]), ("r", DOF["r_shoulder_flexion"])):
+        poses = np.repeat(truth[None], 50, axis=0)
+        poses[:, first : first + 4] += rng.normal(0, 0.5, (50, 4))
+        moving = lik.weights_moving(truth, poses, body.arm_capsules[side])
+        np.testing.assert_array_equal(moving, lik.weights(poses))
+        assert np.ptp(moving) > 0.01  # the arm moves do change the weight
+    assert [len(body.arm_capsules[s]) for s in ("l", "r")] == [3, 3]

@@ -14,8 +14,10 @@ range of 0 leaves that DOF out). With the defaults that is 7 x 3 x 3 x 3 = 189 p
 weighed in one batch. The best pose is kept only when it outweighs the current one; ``levels``
 repeat the search with the ranges halved (``shrink``). The weight never decreases.
 
-Cost: ``levels * 2 * grid`` likelihood evaluations (756 with the defaults), whole poses, no
-factorisation.
+Cost: ``levels * 2 * grid`` likelihood evaluations (756 with the defaults). An arm's variants
+differ from the pose only in that arm's three volumes (upper arm, forearm, hand), so when the
+likelihood offers ``weights_moving`` the rest of the body is rendered once and each variant's
+arm alone (the same weights, bit for bit). Off by default (``docs/tracker.md``, "Arm search").
 """
 
 from __future__ import annotations
@@ -79,6 +81,11 @@ def search_arms(
     """
     names, grid = arm_grid(config)
     low, high = limits
+    # One arm's variants differ from the pose only in that arm's volumes: render the rest once.
+    moving = getattr(likelihood, "weights_moving", None)
+    body = getattr(likelihood, "body", None)
+    if body is None or not hasattr(body, "arm_capsules"):
+        moving = None
     best = np.asarray(pose, dtype=np.float64).copy()
     best_w = float(weight)
     evaluations = 0
@@ -89,7 +96,10 @@ def search_arms(
             cand = np.repeat(best[None], len(offsets), axis=0)
             cand[:, idx] += offsets
             clamp(cand, low, high)
-            w = np.asarray(likelihood.weights(cand), dtype=np.float64)
+            if moving is not None:
+                w = np.asarray(moving(best, cand, body.arm_capsules[side]), dtype=np.float64)
+            else:
+                w = np.asarray(likelihood.weights(cand), dtype=np.float64)
             evaluations += len(cand)
             i = int(np.argmax(w))
             if w[i] > best_w:

@@ -414,6 +414,11 @@ _FRAME_OFFSET: Final[dict[str, tuple[str, tuple[float, float, float]]]] = {
 # Capsule groups for the factored likelihood: volumes moved only by the root and one leg's DOFs.
 LEFT_LEG_SEGMENTS: Final[tuple[str, ...]] = ("left_thigh", "left_shank", "left_foot")
 RIGHT_LEG_SEGMENTS: Final[tuple[str, ...]] = ("right_thigh", "right_shank", "right_foot")
+#: Volumes moved by one arm's DOFs (shoulder flexion, abduction, rotation, elbow flexion).
+ARM_SEGMENTS: Final[dict[str, tuple[str, ...]]] = {
+    "l": ("left_upper_arm", "left_forearm", "left_hand"),
+    "r": ("right_upper_arm", "right_forearm", "right_hand"),
+}
 
 
 # -- the numba kernel -------------------------------------------------------------------------
@@ -713,6 +718,11 @@ class BodyModel:
         self.right_leg_capsules = np.array(
             [i for i, s in enumerate(seg_of) if s in RIGHT_LEG_SEGMENTS], dtype=np.int64
         )
+        #: capsule indices of each arm ("l", "r"): :data:`ARM_SEGMENTS`
+        self.arm_capsules: dict[str, np.ndarray] = {
+            side: np.array([i for i, s in enumerate(seg_of) if s in segs], dtype=np.int64)
+            for side, segs in ARM_SEGMENTS.items()
+        }
         legs = set(self.left_leg_capsules.tolist()) | set(self.right_leg_capsules.tolist())
         self.base_capsules = np.array(
             [i for i in range(len(caps)) if i not in legs], dtype=np.int64

@@ -791,7 +791,13 @@ class ArmSearchConfig(_Model):
     """Grid search of each arm after the filter (:mod:`tracker.arms`): shoulder flexion,
     abduction and rotation and elbow flexion around their current values, the rest held."""
 
-    enabled: Annotated[bool, Field(description="Search the arms after the filter")] = True
+    enabled: Annotated[
+        bool,
+        Field(
+            description="Search the arms after the filter (off by default: it costs about a "
+            "quarter of the frame rate, below issue 3's 30 frames/s; docs/tracker.md)"
+        ),
+    ] = False
     min_cameras: Annotated[
         int,
         Field(

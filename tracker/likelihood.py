@@ -307,6 +307,49 @@ class SilhouetteLikelihood:
             w = w * self.collision.factors(self.body, pts[0])[:, None, None]
         return w
 
+    def weights_moving(
+        self, base: np.ndarray, poses: np.ndarray, capsules: np.ndarray
+    ) -> np.ndarray:
+        """Weights ``(N,)`` of poses ``(N, 31)`` that differ from ``base`` ``(31,)`` only in DOFs
+        moving the given capsules (indices into the body's capsules, e.g. one arm's).
+
+        The rest of the body is rendered once from ``base`` and each pose's moving capsules
+        alone, then OR-ed and counted (``raster.counts_factored_kernel`` with those capsules as
+        the only varying group), so a batch costs little more than rendering those capsules.
+        Equal to :meth:`weights` of ``poses`` when they differ from ``base`` only so; the
+        caller guarantees it (other differences are ignored for the silhouette counts).
+        """
+        sil = self._require_silhouettes()
+        b = self.body
+        p = self._poses(poses)
+        pts_base = b.points(self._poses(base)[:1])
+        pts = b.points(p)
+        groups = np.zeros(len(b.radii), dtype=np.int64)
+        groups[np.asarray(capsules, dtype=np.int64)] = 1
+        counts = raster.counts_factored_kernel(
+            pts_base,
+            pts,
+            pts_base,
+            p.shape[0],
+            1,
+            groups,
+            b.cap_ab,
+            b.radii,
+            self.cams,
+            self.cam_hw,
+            sil,
+            self._vis,
+            self._vis_on,
+            self._sil_total,
+            4 * nb.get_num_threads(),
+        )[0, :, 0]
+        w = weight_from_counts(counts, self.measure)
+        if self.appearance is not None and self.appearance.active:  # colour cue
+            w = w * self.appearance.weight_factors(b, pts)
+        if self.collision is not None:
+            w = w * self.collision.factors(b, pts)
+        return w
+
     def render_mask(self, pose: np.ndarray, camera_index: int) -> np.ndarray:
         """The model's silhouette of one pose (31,) in one camera: bool ``(H, W)``."""
         cam = self.cameras[camera_index]

@@ -18,9 +18,9 @@ I/O: the caller decodes video and writes the pose log) and returns a :class:`Fra
    over the first tracked frames.
 4. Otherwise the **origin search** (:mod:`tracker.origin`) moves the root, holding the previous
    body-part configuration, then the **filter** (IPF, APF or Condensation) updates the body parts,
-   then, with two cameras or more, each arm is searched on a grid (:mod:`tracker.arms`,
-   ``config.arms``) and (``origin.after_filter``) the origin is searched again holding the new
-   legs.
+   then (``config.arms``, opt-in, two cameras or more) each arm is searched on a grid
+   (:mod:`tracker.arms`) and (``origin.after_filter``) the origin is searched again holding the
+   new legs.
 5. **Leg-swap check**: the heaviest particles are weighed with their legs exchanged; a heavier
    one becomes the estimate and joins the particle set (``config.leg_swap``).
    **Re-detection** (``config.redetect``): a reduced initial search around this frame's
@@ -233,6 +233,13 @@ class _CountingLikelihood:
         self.count = 0
         if hasattr(inner, "weights_factored"):
             self.weights_factored = self._factored
+        if hasattr(inner, "weights_moving"):
+            self.weights_moving = self._moving
+
+    @property
+    def body(self):
+        """The inner likelihood's body model (None without one)."""
+        return getattr(self.inner, "body", None)
 
     def weights(self, poses: np.ndarray) -> np.ndarray:
         self.count += poses.shape[0]
@@ -241,6 +248,10 @@ class _CountingLikelihood:
     def _factored(self, base, left, right) -> np.ndarray:
         self.count += base.shape[0] * left.shape[1] * right.shape[1]
         return self.inner.weights_factored(base, left, right)
+
+    def _moving(self, base, poses, capsules) -> np.ndarray:
+        self.count += poses.shape[0]
+        return self.inner.weights_moving(base, poses, capsules)
 
 
 class Tracker:
