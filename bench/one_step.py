@@ -37,7 +37,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import accuracy as A  # noqa: E402
-from search_ceiling import EXACT_BODY, ideal_scene  # noqa: E402
+from search_ceiling import EXACT_BODY, add_scene_arguments, ideal_scene, scene_plan  # noqa: E402
 
 #: Points along the line from the estimate (0) to the truth (1).
 LINE = np.linspace(0.0, 1.0, 11)
@@ -87,13 +87,8 @@ def one_step_scene(frames, bgs, cams, fits, stature, fps, seed: int, settings: d
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--recordings", help=f"comma list among {', '.join(A.RECORDINGS)}")
-    ap.add_argument("--views", default="oblique,side+frontal", help="comma list of view specs")
-    ap.add_argument("--seeds", default="0", help="comma list of scene seeds")
-    ap.add_argument("--tracker-offset", type=int, default=0, help="tracker seed = scene seed + N")
-    ap.add_argument("--max-frames", type=int, default=40)
+    add_scene_arguments(ap)
     ap.add_argument("--settings", default="{}", help="tracker settings as JSON (merged)")
-    ap.add_argument("--data", type=Path, default=A.DATA)
     return ap.parse_args(argv)
 
 
@@ -111,10 +106,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     from tqdm import tqdm
 
-    default_recs = list(dict.fromkeys(r for r, _ in A.DEFAULT_PLAN))
-    recs = args.recordings.split(",") if args.recordings else default_recs
-    views = [A.ViewSpec.parse(v) for v in args.views.split(",")]
-    seeds = [int(s) for s in args.seeds.split(",")]
+    recs, views, seeds = scene_plan(args)
     rows: dict[str, list] = {}
     with tqdm(total=len(recs) * len(views) * len(seeds), unit="scene", file=sys.stderr) as bar:
         for seed in seeds:

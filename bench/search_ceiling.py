@@ -76,16 +76,29 @@ def ideal_scene(rec: str, view: A.ViewSpec, max_frames: int, seed: int, data: Pa
     return frames, masks, bgs, cams, dict(zip(frames_idx, poses, strict=True)), truth, stature, fps
 
 
-def parse_args(argv: list[str]) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def add_scene_arguments(ap: argparse.ArgumentParser) -> None:
+    """The options choosing the ideal scenes (also ``bench/one_step.py``'s)."""
     ap.add_argument("--recordings", help=f"comma list among {', '.join(A.RECORDINGS)}")
     ap.add_argument("--views", default="oblique,side+frontal", help="comma list of view specs")
-    ap.add_argument("--filters", default=",".join(A.FILTERS), help="comma list of filters")
     ap.add_argument("--seeds", default="0", help="comma list of scene seeds")
     ap.add_argument("--tracker-offset", type=int, default=0, help="tracker seed = scene seed + N")
     ap.add_argument("--max-frames", type=int, default=40)
-    ap.add_argument("--exact-body", action="store_true", help="give the tracker the true shape")
     ap.add_argument("--data", type=Path, default=A.DATA)
+
+
+def scene_plan(args: argparse.Namespace) -> tuple[list[str], list[A.ViewSpec], list[int]]:
+    """Recordings (default: the accuracy plan's), views and scene seeds of the options."""
+    default_recs = list(dict.fromkeys(r for r, _ in A.DEFAULT_PLAN))
+    recs = args.recordings.split(",") if args.recordings else default_recs
+    views = [A.ViewSpec.parse(v) for v in args.views.split(",")]
+    return recs, views, [int(s) for s in args.seeds.split(",")]
+
+
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    add_scene_arguments(ap)
+    ap.add_argument("--filters", default=",".join(A.FILTERS), help="comma list of filters")
+    ap.add_argument("--exact-body", action="store_true", help="give the tracker the true shape")
     return ap.parse_args(argv)
 
 
@@ -100,11 +113,8 @@ def main(argv: list[str] | None = None) -> int:
 
     from gaitwatch.evaluation import evaluate
 
-    default_recs = list(dict.fromkeys(r for r, _ in A.DEFAULT_PLAN))
-    recs = args.recordings.split(",") if args.recordings else default_recs
-    views = [A.ViewSpec.parse(v) for v in args.views.split(",")]
+    recs, views, seeds = scene_plan(args)
     filters = args.filters.split(",")
-    seeds = [int(s) for s in args.seeds.split(",")]
     settings = EXACT_BODY if args.exact_body else None
     rows: dict[tuple[str, str], list[tuple[float, ...]]] = {}
     n = len(recs) * len(views) * len(seeds) * len(filters) * args.max_frames

@@ -5,28 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.tracker_helpers import Counting, own_likelihood, walking_clip
 from tracker.arms import arm_grid, search_arms
 from tracker.body import BodyModel
-from tracker.camera import Camera
 from tracker.config import ArmSearchConfig, TrackerConfig, TrackerConfigError, parse_tracker_config
 from tracker.dof import DOF, JointLimits
-from tracker.likelihood import SilhouetteLikelihood
 
 ARM_DOFS = [
     DOF[f"{s}_{n}"]
     for s in ("l", "r")
     for n in ("shoulder_flexion", "shoulder_abduction", "shoulder_rotation", "elbow_flexion")
 ]
-
-
-class _Counting:
-    def __init__(self, inner: SilhouetteLikelihood) -> None:
-        self.inner = inner
-        self.count = 0
-
-    def weights(self, poses: np.ndarray) -> np.ndarray:
-        self.count += np.atleast_2d(poses).shape[0]
-        return self.inner.weights(poses)
 
 
 @pytest.fixture(scope="module")
@@ -57,16 +46,6 @@ def _truth(body: BodyModel) -> np.ndarray:
     return p
 
 
-def _likelihood(body: BodyModel, pose: np.ndarray) -> SilhouetteLikelihood:
-    cams = [
-        Camera.look_at(name="front", position=[4.0, 1.0, 1.5], target=[0, 0, 0.9]),
-        Camera.look_at(name="side", position=[0.5, -4.0, 1.8], target=[0, 0, 0.9]),
-    ]
-    lik = SilhouetteLikelihood(body, [c.scaled(160, 120) for c in cams])
-    lik.set_silhouettes([lik.render_mask(pose, k) for k in range(len(cams))])
-    return lik
-
-
 def _wrist_error(body: BodyModel, a: np.ndarray, b: np.ndarray) -> float:
     from gaitwatch.conventions import KP
 
@@ -79,14 +58,14 @@ def test_recovers_lost_arms(body, limits) -> None:
     """Arms collapsed onto the trunk (straight, hanging: the failure seen on the benchmark) are
     found again; nothing else moves; the evaluations are the grid's."""
     truth = _truth(body)
-    lik = _likelihood(body, truth)
+    lik = own_likelihood(body, truth)
     start = truth.copy()
     for s in ("l", "r"):
         start[DOF[f"{s}_shoulder_flexion"]] = 0.0
         start[DOF[f"{s}_shoulder_abduction"]] = 0.0
         start[DOF[f"{s}_elbow_flexion"]] = 0.0
     w0 = float(lik.weights(start[None])[0])
-    counting = _Counting(lik)
+    counting = Counting(lik, factored=False)
     cfg = ArmSearchConfig()
     res = search_arms(counting, start, w0, cfg, limits=limits)
     assert res.evaluations == counting.count == cfg.levels * 2 * cfg.grid_size == 756
@@ -101,7 +80,7 @@ def test_recovers_lost_arms(body, limits) -> None:
 
 def test_never_lowers_the_weight_and_stays_in_limits(body, limits) -> None:
     truth = _truth(body)
-    lik = _likelihood(body, truth)
+    lik = own_likelihood(body, truth)
     lo, hi = limits
     w = float(lik.weights(truth[None])[0])
     res = search_arms(lik, truth, w, ArmSearchConfig(), limits=limits)
@@ -137,15 +116,7 @@ def test_grid_and_config() -> None:
 
 @pytest.fixture(scope="module")
 def walking_frames() -> dict:
-    from tracker.synthetic import render_clip, side_cameras, textured_background, walking_motion
-
-    rng = np.random.default_rng(7)
-    body = BodyModel(1.70)
-    cams = side_cameras(2, image_size=(320, 240), fps=20.0)
-    poses = walking_motion(body, 3, fps=20.0, speed_m_s=1.0)
-    bgs = [textured_background(320, 240, rng) for _ in cams]
-    frames = list(render_clip(SilhouetteLikelihood(body, cams), poses, bgs, rng))
-    return {"body": body, "cams": cams, "bgs": bgs, "frames": frames}
+    return walking_clip()
 
 
 def _track(clip: dict, arms: dict, n_cams: int = 2):
@@ -178,7 +149,7 @@ def test_weights_moving_equals_whole_renderings(body) -> None:
     """One arm's variants weighed with the rest of the body rendered once: the same weights,
     bit for bit, as rendering every pose whole."""
     truth = _truth(body)
-    lik = _likelihood(body, truth)
+    lik = own_likelihood(body, truth)
     rng = np.random.default_rng(5)
     for side, first in (("l", DOF["l_shoulder_flexion"]), ("r", DOF["r_shoulder_flexion"])):
         poses = np.repeat(truth[None], 50, axis=0)

@@ -5,30 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.tracker_helpers import Counting, own_likelihood, walking_clip
 from tracker.body import BodyModel
-from tracker.camera import Camera
 from tracker.config import RefineConfig, TrackerConfig, TrackerConfigError, parse_tracker_config
 from tracker.dof import DOF, LEFT_LEG, RIGHT_LEG, JointLimits
-from tracker.likelihood import SilhouetteLikelihood
 from tracker.refine import dof_ranges, refine_pose
-
-
-class _Counting:
-    """Counts the poses weighed, as the pipeline does (factored combinations one each)."""
-
-    def __init__(self, inner: SilhouetteLikelihood, factored: bool = True) -> None:
-        self.inner = inner
-        self.count = 0
-        if factored:
-            self.weights_factored = self._factored
-
-    def weights(self, poses: np.ndarray) -> np.ndarray:
-        self.count += np.atleast_2d(poses).shape[0]
-        return self.inner.weights(poses)
-
-    def _factored(self, base, left, right) -> np.ndarray:
-        self.count += base.shape[0] * left.shape[1] * right.shape[1]
-        return self.inner.weights_factored(base, left, right)
 
 
 @pytest.fixture(scope="module")
@@ -56,17 +37,6 @@ def _truth(body: BodyModel) -> np.ndarray:
     return p
 
 
-def _likelihood(body: BodyModel, pose: np.ndarray, n_cams: int) -> SilhouetteLikelihood:
-    """Silhouettes of ``pose`` rendered by the tracker's own model (an exact match exists)."""
-    cams = [
-        Camera.look_at(name="front", position=[4.0, 1.0, 1.5], target=[0, 0, 0.9]),
-        Camera.look_at(name="side", position=[0.5, -4.0, 1.8], target=[0, 0, 0.9]),
-    ][:n_cams]
-    lik = SilhouetteLikelihood(body, [c.scaled(160, 120) for c in cams])
-    lik.set_silhouettes([lik.render_mask(pose, k) for k in range(len(cams))])
-    return lik
-
-
 # Perturbations of DOFs the IPF does not grid-search (degrees), within the default ranges.
 PERTURB = {
     "l_hip_abduction": 7,
@@ -81,11 +51,11 @@ PERTURB = {
 @pytest.mark.parametrize("factored", [True, False])
 def test_recovers_a_known_perturbation(body, limits, factored: bool) -> None:
     truth = _truth(body)
-    lik = _likelihood(body, truth, 2)
+    lik = own_likelihood(body, truth, 2)
     start = truth.copy()
     for name, deg in PERTURB.items():
         start[DOF[name]] += np.radians(deg)
-    counting = _Counting(lik, factored)
+    counting = Counting(lik, factored)
     w0 = float(lik.weights(start[None])[0])
     cfg = RefineConfig(offsets=4, levels=3, sweeps=2, factored=factored)
     res = refine_pose(counting, start, w0, cfg, limits=limits)
@@ -103,7 +73,7 @@ def test_recovers_a_known_perturbation(body, limits, factored: bool) -> None:
 
 def test_never_lowers_the_weight_and_stays_in_limits(body, limits) -> None:
     truth = _truth(body)
-    lik = _likelihood(body, truth, 1)
+    lik = own_likelihood(body, truth, 1)
     rng = np.random.default_rng(4)
     lo, hi = limits
     for _ in range(4):
@@ -118,7 +88,7 @@ def test_never_lowers_the_weight_and_stays_in_limits(body, limits) -> None:
 
 def test_at_the_optimum_nothing_moves(body, limits) -> None:
     truth = _truth(body)
-    lik = _likelihood(body, truth, 2)
+    lik = own_likelihood(body, truth, 2)
     w = float(lik.weights(truth[None])[0])
     res = refine_pose(lik, truth, w, RefineConfig(), limits=limits)
     assert res.weight == pytest.approx(w)
@@ -127,7 +97,7 @@ def test_at_the_optimum_nothing_moves(body, limits) -> None:
 
 def test_legs_only_leaves_the_upper_body(body, limits) -> None:
     truth = _truth(body)
-    lik = _likelihood(body, truth, 2)
+    lik = own_likelihood(body, truth, 2)
     start = truth.copy()
     start[DOF["trunk_lateral"]] += np.radians(8)
     start[DOF["l_hip_abduction"]] += np.radians(6)
@@ -153,15 +123,7 @@ def test_config_validation_and_overrides() -> None:
 
 @pytest.fixture(scope="module")
 def walking_frames() -> dict:
-    from tracker.synthetic import render_clip, side_cameras, textured_background, walking_motion
-
-    rng = np.random.default_rng(7)
-    body = BodyModel(1.70)
-    cams = side_cameras(2, image_size=(320, 240), fps=20.0)
-    poses = walking_motion(body, 3, fps=20.0, speed_m_s=1.0)
-    bgs = [textured_background(320, 240, rng) for _ in cams]
-    frames = list(render_clip(SilhouetteLikelihood(body, cams), poses, bgs, rng))
-    return {"body": body, "cams": cams, "bgs": bgs, "frames": frames}
+    return walking_clip()
 
 
 def _track(clip: dict, refine: dict):

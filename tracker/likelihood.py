@@ -255,8 +255,15 @@ class SilhouetteLikelihood:
         return pts_base, pts_left, pts_right, na, nb_
 
     def _counts_factored(
-        self, pts_base: np.ndarray, pts_left: np.ndarray, pts_right: np.ndarray, na: int, nb_: int
+        self,
+        pts_base: np.ndarray,
+        pts_left: np.ndarray,
+        pts_right: np.ndarray,
+        na: int,
+        nb_: int,
+        groups: np.ndarray | None = None,
     ) -> np.ndarray:
+        """``groups``: which capsules each part supplies (default the legs', ``capsule_groups``)."""
         sil = self._require_silhouettes()
         b = self.body
         return raster.counts_factored_kernel(
@@ -265,7 +272,7 @@ class SilhouetteLikelihood:
             pts_right,
             na,
             nb_,
-            b.capsule_groups,
+            b.capsule_groups if groups is None else groups,
             b.cap_ab,
             b.radii,
             self.cams,
@@ -319,30 +326,13 @@ class SilhouetteLikelihood:
         Equal to :meth:`weights` of ``poses`` when they differ from ``base`` only so; the
         caller guarantees it (other differences are ignored for the silhouette counts).
         """
-        sil = self._require_silhouettes()
         b = self.body
         p = self._poses(poses)
         pts_base = b.points(self._poses(base)[:1])
         pts = b.points(p)
         groups = np.zeros(len(b.radii), dtype=np.int64)
-        groups[np.asarray(capsules, dtype=np.int64)] = 1
-        counts = raster.counts_factored_kernel(
-            pts_base,
-            pts,
-            pts_base,
-            p.shape[0],
-            1,
-            groups,
-            b.cap_ab,
-            b.radii,
-            self.cams,
-            self.cam_hw,
-            sil,
-            self._vis,
-            self._vis_on,
-            self._sil_total,
-            4 * nb.get_num_threads(),
-        )[0, :, 0]
+        groups[np.asarray(capsules, dtype=np.int64)] = 1  # group 2 (the "right" part): empty
+        counts = self._counts_factored(pts_base, pts, pts_base, p.shape[0], 1, groups)[0, :, 0]
         w = weight_from_counts(counts, self.measure)
         if self.appearance is not None and self.appearance.active:  # colour cue
             w = w * self.appearance.weight_factors(b, pts)
