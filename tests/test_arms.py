@@ -110,6 +110,8 @@ def test_grid_and_config() -> None:
         parse_tracker_config({"arms": {"range_wrist_deg": 3}})
     with pytest.raises(TrackerConfigError):
         parse_tracker_config({"arms": {"levels": 0}})
+    with pytest.raises(TrackerConfigError, match="odd"):
+        parse_tracker_config({"arms": {"flexion_values": 6}})
     c = TrackerConfig()
     assert not c.arms.enabled and c.arms.min_cameras == 2  # opt-in: its cost (docs/tracker.md)
 

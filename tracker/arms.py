@@ -3,9 +3,10 @@
 The filter explores only the hips' and knees' flexion on a grid; the arms get one white-noise
 draw per group. Walking swings them by tens of degrees a second, and an arm the filter loses
 tends to stay hidden inside the trunk's silhouette: a model arm there costs no model-only pixels,
-so no small random move pays until one lands on the real arm. On the accuracy benchmark's
-two-camera scenes the estimate's elbows were 20 degrees too straight and the shoulders 10 to 14
-degrees too adducted on average, and the wrists were off by 15-19 cm (``docs/tracker.md``).
+so no small random move pays until one lands on the real arm. On two-camera footage of the
+tracker's own body fitted to the recordings the estimate's elbows were 20 degrees too straight
+and the shoulders 10 to 14 degrees too adducted on average, and the wrists were off by 15-19 cm
+(``docs/tracker.md``, "Arm search").
 
 This stage searches each arm in turn on a deterministic grid around its current values, the rest
 of the pose held: shoulder flexion on ``flexion_values`` values over ``+-range_flexion_deg``, and

@@ -794,8 +794,8 @@ class ArmSearchConfig(_Model):
     enabled: Annotated[
         bool,
         Field(
-            description="Search the arms after the filter (off by default: it costs about a "
-            "quarter of the frame rate, below issue 3's 30 frames/s; docs/tracker.md)"
+            description="Search the arms after the filter (off by default: it costs 10-20 % "
+            "of the frame rate, with issue 3's 30 frames/s at the edge; docs/tracker.md)"
         ),
     ] = False
     min_cameras: Annotated[
@@ -809,7 +809,7 @@ class ArmSearchConfig(_Model):
         ),
     ] = 2
     flexion_values: Annotated[
-        int, Field(ge=1, le=15, description="Shoulder flexion values per grid")
+        int, Field(ge=1, le=15, description="Shoulder flexion values per grid (odd: 0 is one)")
     ] = 7
     range_flexion_deg: Annotated[
         float, Field(ge=0, le=90, description="+- range of shoulder flexion")
@@ -834,6 +834,13 @@ class ArmSearchConfig(_Model):
             "from its arms); otherwise only the output carries them"
         ),
     ] = True
+
+    @field_validator("flexion_values")
+    @classmethod
+    def _odd(cls, v: int) -> int:
+        if v % 2 == 0:
+            raise ValueError("flexion_values must be odd (the current value is one of them)")
+        return v
 
     @property
     def grid_size(self) -> int:
