@@ -28,16 +28,20 @@ from __future__ import annotations
 
 import argparse
 import json
-import logging
 import sys
-import warnings
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import accuracy as A  # noqa: E402
-from search_ceiling import EXACT_BODY, add_scene_arguments, ideal_scene, scene_plan  # noqa: E402
+from search_ceiling import (  # noqa: E402
+    EXACT_BODY,
+    add_scene_arguments,
+    ideal_scene,
+    ready,
+    scene_plan,
+)
 
 #: Points along the line from the estimate (0) to the truth (1).
 LINE = np.linspace(0.0, 1.0, 11)
@@ -94,10 +98,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(sys.argv[1:] if argv is None else argv)
-    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    warnings.filterwarnings("ignore", category=RuntimeWarning)
-    if not args.data.is_dir():
-        print(f"one_step: no shared recordings at {args.data}", file=sys.stderr)
+    if not ready(args, "one_step"):
         return 2
     try:
         settings = json.loads(args.settings)

@@ -22,6 +22,22 @@ def shared_data() -> Path:
     return SHARED_DATA
 
 
+@pytest.fixture(scope="module")
+def body():
+    """The tracker's body model of a 1.72 m person (modules may define their own)."""
+    from tracker.body import BodyModel
+
+    return BodyModel(1.72)
+
+
+@pytest.fixture(scope="module")
+def limits():
+    """The walking joint limits as (low, high) arrays (radians, metres)."""
+    from tracker.dof import JointLimits
+
+    return JointLimits.profile("walking").arrays()
+
+
 def shared_file(shared_data: Path, rel: str) -> Path:
     p = shared_data / rel
     if not p.is_file():

@@ -9,23 +9,13 @@ from tests.tracker_helpers import Counting, own_likelihood, walking_clip
 from tracker.arms import arm_grid, search_arms
 from tracker.body import BodyModel
 from tracker.config import ArmSearchConfig, TrackerConfig, TrackerConfigError, parse_tracker_config
-from tracker.dof import DOF, JointLimits
+from tracker.dof import DOF
 
 ARM_DOFS = [
     DOF[f"{s}_{n}"]
     for s in ("l", "r")
     for n in ("shoulder_flexion", "shoulder_abduction", "shoulder_rotation", "elbow_flexion")
 ]
-
-
-@pytest.fixture(scope="module")
-def body() -> BodyModel:
-    return BodyModel(1.72)
-
-
-@pytest.fixture(scope="module")
-def limits() -> tuple[np.ndarray, np.ndarray]:
-    return JointLimits.profile("walking").arrays()
 
 
 def _truth(body: BodyModel) -> np.ndarray:

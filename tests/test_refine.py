@@ -8,18 +8,8 @@ import pytest
 from tests.tracker_helpers import Counting, own_likelihood, walking_clip
 from tracker.body import BodyModel
 from tracker.config import RefineConfig, TrackerConfig, TrackerConfigError, parse_tracker_config
-from tracker.dof import DOF, LEFT_LEG, RIGHT_LEG, JointLimits
+from tracker.dof import DOF, LEFT_LEG, RIGHT_LEG
 from tracker.refine import dof_ranges, refine_pose
-
-
-@pytest.fixture(scope="module")
-def body() -> BodyModel:
-    return BodyModel(1.72)
-
-
-@pytest.fixture(scope="module")
-def limits() -> tuple[np.ndarray, np.ndarray]:
-    return JointLimits.profile("walking").arrays()
 
 
 def _truth(body: BodyModel) -> np.ndarray:

@@ -24,6 +24,7 @@ arm alone (the same weights, bit for bit). Off by default (``docs/tracker.md``, 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -47,24 +48,35 @@ class ArmSearchResult:
 def arm_grid(config: ArmSearchConfig) -> tuple[list[str], np.ndarray]:
     """The searched DOF suffixes and the grid of offsets (G, d) in radians, at level 0.
 
-    The zero offset (the current pose) is always one of the rows.
+    The zero offset (the current pose) is always one of the rows. Cached per set of ranges (the
+    pipeline asks for it on every frame).
     """
+    names, grid = _grid(
+        config.flexion_values,
+        config.range_flexion_deg,
+        config.range_abduction_deg,
+        config.range_rotation_deg,
+        config.range_elbow_deg,
+    )
+    return list(names), grid.copy()
+
+
+@lru_cache(maxsize=8)
+def _grid(
+    n_flexion: int, flexion: float, abduction: float, rotation: float, elbow: float
+) -> tuple[tuple[str, ...], np.ndarray]:
     axes: list[tuple[str, np.ndarray]] = [
-        (
-            "shoulder_flexion",
-            np.linspace(-config.range_flexion_deg, config.range_flexion_deg, config.flexion_values),
-        )
+        ("shoulder_flexion", np.linspace(-flexion, flexion, n_flexion))
     ]
     for name, r in (
-        ("shoulder_abduction", config.range_abduction_deg),
-        ("shoulder_rotation", config.range_rotation_deg),
-        ("elbow_flexion", config.range_elbow_deg),
+        ("shoulder_abduction", abduction),
+        ("shoulder_rotation", rotation),
+        ("elbow_flexion", elbow),
     ):
         if r > 0:
             axes.append((name, np.array([-r, 0.0, r])))
-    names = [n for n, _ in axes]
     grid = np.stack(np.meshgrid(*[v for _, v in axes], indexing="ij"), axis=-1)
-    return names, np.radians(grid.reshape(-1, len(axes)))
+    return tuple(n for n, _ in axes), np.radians(grid.reshape(-1, len(axes)))
 
 
 def search_arms(
