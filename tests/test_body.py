@@ -23,9 +23,16 @@ def _random_poses(body: BodyModel, rng: np.random.Generator, n: int, profile: st
     return poses
 
 
+# Every bone of CONVENTIONS is rigid in the model but sacrum-neck and neck-head: the sacrum key
+# point lies on the pelvis behind the trunk's pivot and the neck key point on the trunk ahead of
+# the head's, so trunk and head flexion change those distances, as the spine's bending does.
+_FLEXIBLE = ({KP["sacrum"], KP["neck"]}, {KP["neck"], KP["head"]})
+_RIGID = [(i, j) for i, j in BONE_INDICES if {i, j} not in _FLEXIBLE]
+
+
 def _bone_lengths(kp: np.ndarray) -> np.ndarray:
-    a = np.array([i for i, _ in BONE_INDICES])
-    b = np.array([j for _, j in BONE_INDICES])
+    a = np.array([i for i, _ in _RIGID])
+    b = np.array([j for _, j in _RIGID])
     return np.linalg.norm(kp[:, a] - kp[:, b], axis=-1)
 
 
@@ -35,12 +42,22 @@ def test_neutral_pose_stands_on_the_floor(height: float) -> None:
     kp = body.forward(body.neutral_pose(x=1.0, y=-2.0, yaw=0.7))[0]
     for name in ("left_heel", "right_heel", "left_toe", "right_toe"):
         assert kp[KP[name], 2] == pytest.approx(0.0, abs=1e-9)
-    assert kp[KP["sacrum"], 2] == pytest.approx(body.root_height)
+    # the root is the pelvis frame's origin; the sacrum key point (mid-PSIS) lies behind and
+    # above it, 0.084 H behind and 0.069 H above the hip centres' mid-point
+    heading = np.array([np.cos(0.7), np.sin(0.7)])
+    hips = 0.5 * (kp[KP["left_hip"]] + kp[KP["right_hip"]])
+    d = kp[KP["sacrum"]] - hips
+    assert -d[:2] @ heading == pytest.approx(0.084 * height)
+    assert d[2] == pytest.approx(0.069 * height)
+    assert kp[KP["sacrum"], 2] == pytest.approx(body.root_height + 0.024 * height)
+    # the neck key point (base of the neck at C7 level) 0.005 H behind the shoulder centres
+    shoulders = 0.5 * (kp[KP["left_shoulder"]] + kp[KP["right_shoulder"]])
+    assert (kp[KP["neck"]] - shoulders)[:2] @ heading == pytest.approx(-0.005 * height)
     # head centre ~0.936 H (Winter), knee ~0.285 H, shoulder ~0.818 H
     assert kp[KP["head"], 2] == pytest.approx(0.936 * height, abs=0.01 * height)
     assert kp[KP["left_knee"], 2] == pytest.approx(0.285 * height, abs=0.005 * height)
     assert kp[KP["left_shoulder"], 2] == pytest.approx(0.818 * height, abs=0.005 * height)
-    assert kp[KP["sacrum"], :2] == pytest.approx([1.0, -2.0])
+    assert kp[KP["sacrum"], :2] == pytest.approx([1.0, -2.0] - 0.029 * height * heading)
     assert body.segment_lengths["thigh"] == pytest.approx((0.530 - 0.285) * height)
 
 

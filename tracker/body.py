@@ -3,11 +3,12 @@
 Skeleton
     19 key points (``gaitwatch.conventions.KEYPOINTS``) on 17 rigid segments: pelvis, trunk,
     head, and per side clavicle, upper arm, forearm, hand, thigh, shank, foot. They hang on 13
-    moving frames (pelvis = body origin at the sacrum, trunk, head, and per side upper arm,
-    forearm, thigh, shank, foot); clavicles move with the trunk and hands with the forearms. The
-    four kinematic chains (two arms from the trunk, two legs from the pelvis) and the trunk and
-    head are driven by the 31 DOF of :mod:`tracker.dof` (order, units and signs are defined there;
-    the table is in ``docs/body-model.md``).
+    moving frames (pelvis = body origin near the lumbosacral joint, trunk, head, and per side
+    upper arm, forearm, thigh, shank, foot); clavicles move with the trunk and hands with the
+    forearms. The sacrum and neck key points are landmarks near, not at, the pelvis's and the
+    head's pivots (docs/body-model.md). The four kinematic chains (two arms from the trunk, two
+    legs from the pelvis) and the trunk and head are driven by the 31 DOF of :mod:`tracker.dof`
+    (order, units and signs are defined there; the table is in ``docs/body-model.md``).
 
 Anthropometry
     Segment lengths are fractions of the standing height ``H`` from the table of Drillis &
@@ -60,13 +61,25 @@ HEAD_CENTRE_HEIGHT: Final = 0.936  # eye level, taken as the centre of the head
 # Hip joint centres are ~36 % of the ASIS width (~0.145 H) either side of the midline
 # (Bell, Pedersen & Brand 1990): separation 0.72 * 0.145 H ~ 0.105 H (0.18 m at 1.70 m).
 HIP_JOINT_SEPARATION: Final = 0.105
-# The sacrum (mid-point of the posterior iliac spines, on the skin) lies above and behind the
-# hip joint centres.
+# The pelvis frame's origin (the body's root and the trunk's pivot, near the lumbosacral joint)
+# lies above and behind the hip joint centres; the body's volumes are built around it.
 SACRUM_ABOVE_HIP: Final = 0.045
 SACRUM_BEHIND_HIP: Final = 0.055
-# C7 ("neck") lies above the acromion level and behind the shoulder joint centres.
+# The sacrum key point of CONVENTIONS (mid-point of the posterior iliac spines, on the skin)
+# lies further back and higher: 0.062-0.103 H behind and 0.045-0.089 H above the hip centres in
+# the shared recordings (mean over the four sources 0.084 and 0.069 H), so 0.029 H behind and
+# 0.024 H above the pelvis frame's origin (docs/body-model.md).
+SACRUM_KEYPOINT_BEHIND_ROOT: Final = 0.029
+SACRUM_KEYPOINT_ABOVE_ROOT: Final = 0.024
+# The head's pivot (the cervical joint, at the C7 spinous process) lies above the acromion
+# level and behind the shoulder joint centres.
 NECK_ABOVE_SHOULDER: Final = 0.025
 SHOULDER_FORWARD_OF_NECK: Final = 0.035
+# The neck key point of CONVENTIONS (the base of the neck at C7 level) lies further forward: in
+# the shared recordings 0.017 H behind to 0.014 H ahead of the shoulder joint centres' mid-point
+# (C7 or the mid-acromion markers, or the skeleton's C7-level joint), so 0.030 H ahead of the
+# head's pivot, 0.005 H behind the shoulder centres (docs/body-model.md).
+NECK_KEYPOINT_FORWARD_OF_PIVOT: Final = 0.030
 # Glenohumeral joint centres lie medial of the acromion tips (0.1295 H): 0.110 H from the midline.
 SHOULDER_JOINT_HALF_WIDTH: Final = 0.110
 HEAD_FORWARD_OF_NECK: Final = 0.040
@@ -369,8 +382,8 @@ def _keypoint_table() -> dict[str, tuple[str, tuple[float, float, float]]]:
     sh_x = SHOULDER_FORWARD_OF_NECK
     table = {
         "head": ("head", (HEAD_FORWARD_OF_NECK, 0.0, head_z)),
-        "neck": ("trunk", (0.0, 0.0, neck_z)),
-        "sacrum": ("pelvis", (0.0, 0.0, 0.0)),
+        "neck": ("trunk", (NECK_KEYPOINT_FORWARD_OF_PIVOT, 0.0, neck_z)),
+        "sacrum": ("pelvis", (-SACRUM_KEYPOINT_BEHIND_ROOT, 0.0, SACRUM_KEYPOINT_ABOVE_ROOT)),
         "left_shoulder": ("trunk", (sh_x, SHOULDER_JOINT_HALF_WIDTH, shoulder_z)),
         "right_shoulder": ("trunk", (sh_x, -SHOULDER_JOINT_HALF_WIDTH, shoulder_z)),
         "left_elbow": ("left_upper_arm", (0.0, 0.0, -ua)),
@@ -393,12 +406,22 @@ def _keypoint_table() -> dict[str, tuple[str, tuple[float, float, float]]]:
 
 
 _KEYPOINT_TABLE: Final = _keypoint_table()
+#: Where each joint sits (frame, local position as fractions of H): the key points, and the
+#: trunk's pivot (the pelvis frame's origin) and the head's (at C7), which are not key points.
+_JOINT_POINTS: Final = {
+    **_KEYPOINT_TABLE,
+    "lumbosacral": ("pelvis", (0.0, 0.0, 0.0)),
+    "cervical": (
+        "trunk",
+        (0.0, 0.0, SHOULDER_HEIGHT + NECK_ABOVE_SHOULDER - (HIP_HEIGHT + SACRUM_ABOVE_HIP)),
+    ),
+}
 
 # Frame origins in their parent frame (fractions of H): where each joint sits.
 _FRAME_OFFSET: Final[dict[str, tuple[str, tuple[float, float, float]]]] = {
     "pelvis": ("", (0.0, 0.0, 0.0)),
-    "trunk": ("sacrum", (0.0, 0.0, 0.0)),
-    "head": ("neck", (0.0, 0.0, 0.0)),
+    "trunk": ("lumbosacral", (0.0, 0.0, 0.0)),
+    "head": ("cervical", (0.0, 0.0, 0.0)),
     "left_upper_arm": ("left_shoulder", (0.0, 0.0, 0.0)),
     "left_forearm": ("left_elbow", (0.0, 0.0, 0.0)),
     "right_upper_arm": ("right_shoulder", (0.0, 0.0, 0.0)),
@@ -604,7 +627,8 @@ class BodyModel:
     segment_lengths : dict[str, float]
         Bone lengths in metres (``"thigh"``, ``"shank"``, ``"upper_arm"``, ...).
     root_height : float
-        Sacrum height when standing upright with the feet flat, metres.
+        Height of the body origin (``root_z``, the pelvis frame's origin: not the sacrum key
+        point, which lies higher) when standing upright with the feet flat, metres.
     radii : np.ndarray
         ``(C, 2)`` capsule radii in metres (end a, end b), girth applied.
     """
@@ -674,7 +698,7 @@ class BodyModel:
             if parent is not None:
                 self._parent[f] = _F[parent]
                 joint_kp = _FRAME_OFFSET[name][0]
-                kframe, local = kp[joint_kp]
+                kframe, local = _JOINT_POINTS[joint_kp]
                 # a joint point lives in the parent frame (or at the parent's origin)
                 if kframe != parent:
                     raise AssertionError(f"{name}: joint {joint_kp} not in parent {parent}")

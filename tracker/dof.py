@@ -1,8 +1,9 @@
 """The 31 degrees of freedom of the body model, their order, units, signs and joint limits.
 
 A pose is a float64 vector of 31 values in the order of :data:`DOF_NAMES`: the body origin
-(sacrum position in metres, world frame; then heading, pitch and roll in radians), then joint
-angles in radians. Batches of poses are ``(N, 31)`` arrays.
+(the pelvis frame's origin near the lumbosacral joint, in metres, world frame; the sacrum key
+point lies 0.029 H behind and 0.024 H above it; then heading, pitch and roll in radians), then
+joint angles in radians. Batches of poses are ``(N, 31)`` arrays.
 
 Frames and signs (the subject's own left and right; world z up):
 
