@@ -56,7 +56,7 @@ def test_recovers_lost_arms(body, limits) -> None:
         start[DOF[f"{s}_elbow_flexion"]] = 0.0
     w0 = float(lik.weights(start[None])[0])
     counting = Counting(lik, factored=False)
-    cfg = ArmSearchConfig()
+    cfg = ArmSearchConfig(levels=2)
     res = search_arms(counting, start, w0, cfg, limits=limits)
     assert res.evaluations == counting.count == cfg.levels * 2 * cfg.grid_size == 756
     assert res.weight > w0 + 0.01
@@ -103,7 +103,8 @@ def test_grid_and_config() -> None:
     with pytest.raises(TrackerConfigError, match="odd"):
         parse_tracker_config({"arms": {"flexion_values": 6}})
     c = TrackerConfig()
-    assert not c.arms.enabled and c.arms.min_cameras == 2  # opt-in: its cost (docs/tracker.md)
+    # on with two cameras or more, one level (docs/tracker.md, "Arm search")
+    assert c.arms.enabled and c.arms.min_cameras == 2 and c.arms.levels == 1
 
 
 @pytest.fixture(scope="module")

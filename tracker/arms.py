@@ -13,12 +13,13 @@ of the pose held: shoulder flexion on ``flexion_values`` values over ``+-range_f
 shoulder abduction, shoulder rotation and elbow flexion on three values each (``-r, 0, +r``; a
 range of 0 leaves that DOF out). With the defaults that is 7 x 3 x 3 x 3 = 189 poses per arm,
 weighed in one batch. The best pose is kept only when it outweighs the current one; ``levels``
-repeat the search with the ranges halved (``shrink``). The weight never decreases.
+(default 1) repeat the search with the ranges halved (``shrink``). The weight never decreases.
 
-Cost: ``levels * 2 * grid`` likelihood evaluations (756 with the defaults). An arm's variants
+Cost: ``levels * 2 * grid`` likelihood evaluations (378 with the defaults). An arm's variants
 differ from the pose only in that arm's three volumes (upper arm, forearm, hand), so when the
 likelihood offers ``weights_moving`` the rest of the body is rendered once and each variant's
-arm alone (the same weights, bit for bit). Off by default (``docs/tracker.md``, "Arm search").
+arm alone (the same weights, bit for bit). On by default with two cameras or more, never
+through one (``ArmSearchConfig.min_cameras``; ``docs/tracker.md``, "Arm search").
 """
 
 from __future__ import annotations

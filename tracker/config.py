@@ -794,10 +794,10 @@ class ArmSearchConfig(_Model):
     enabled: Annotated[
         bool,
         Field(
-            description="Search the arms after the filter (off by default: it costs 10-20 % "
-            "of the frame rate, with issue 3's 30 frames/s at the edge; docs/tracker.md)"
+            description="Search the arms after the filter, with at least min_cameras cameras "
+            '(docs/tracker.md, "Arm search")'
         ),
-    ] = False
+    ] = True
     min_cameras: Annotated[
         int,
         Field(
@@ -824,8 +824,14 @@ class ArmSearchConfig(_Model):
         float, Field(ge=0, le=90, description="+- range of elbow flexion (0: not searched)")
     ] = 25.0
     levels: Annotated[
-        int, Field(ge=1, le=6, description="Searches with shrinking ranges per frame")
-    ] = 2
+        int,
+        Field(
+            ge=1,
+            le=6,
+            description="Searches with shrinking ranges per call (a second level halved the "
+            "gain's cost per evaluation: docs/tracker.md)",
+        ),
+    ] = 1
     shrink: Annotated[float, Field(gt=0, lt=1, description="Range factor per level")] = 0.5
     inject: Annotated[
         bool,
