@@ -1190,9 +1190,11 @@ class Tracker:
 
     def _search_arms(self, pose: np.ndarray, weight: float) -> tuple[np.ndarray, float]:
         """Grid search of each arm (:mod:`tracker.arms`, ``arms``); joins the particles when
-        heavier. Off with fewer than ``arms.min_cameras`` cameras."""
+        heavier. Off with fewer than ``arms.min_cameras`` cameras, and while the leg length is
+        being scored: the estimate's arms, searched on the body in use, would favour that body's
+        leg length over the others (whose trials start from arms placed for another trunk)."""
         ac = self.config.arms
-        if not ac.enabled or len(self.cameras) < ac.min_cameras:
+        if not ac.enabled or len(self.cameras) < ac.min_cameras or self._estimate_legs:
             return pose, weight
         with _single_thread():
             res = search_arms(self._lik, pose, weight, ac, limits=self.limits)
