@@ -828,8 +828,8 @@ class ArmSearchConfig(_Model):
         Field(
             ge=1,
             le=6,
-            description="Searches with shrinking ranges per call (a second level halved the "
-            "gain's cost per evaluation: docs/tracker.md)",
+            description="Searches with shrinking ranges per call (a second level gained "
+            "nothing on the benchmark's probes for twice the cost: docs/tracker.md)",
         ),
     ] = 1
     shrink: Annotated[float, Field(gt=0, lt=1, description="Range factor per level")] = 0.5
