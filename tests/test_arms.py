@@ -151,3 +151,40 @@ def test_weights_moving_equals_whole_renderings(body) -> None:
         np.testing.assert_array_equal(moving, lik.weights(poses))
         assert np.ptp(moving) > 0.01  # the arm moves do change the weight
     assert [len(body.arm_capsules[s]) for s in ("l", "r")] == [3, 3]
+
+
+def test_no_arm_search_while_the_leg_length_is_scored(walking_frames: dict, monkeypatch) -> None:
+    """The leg-length trials weigh bodies against each other: arms searched on the body in use
+    would favour its length. The search starts once the length is fixed."""
+    import tracker.pipeline as pipeline
+    from tracker.pipeline import Tracker
+
+    frame, calls = [0], []
+    real = pipeline.search_arms
+
+    def spy(*args, **kwargs):
+        calls.append(frame[0])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(pipeline, "search_arms", spy)
+    cfg = TrackerConfig.model_validate(
+        {
+            "ipf": {"kept": 9},
+            "init": {
+                "girths": (1.0,),
+                "part_girths": (1.0,),
+                "hems": (),
+                "leg_lengths": (0.95, 1.0, 1.05),
+                "leg_length_frames": 1,
+            },
+        }
+    )
+    clip = walking_frames
+    tr = Tracker(clip["cams"], cfg, rng=np.random.default_rng(0), backgrounds=clip["bgs"])
+    statuses = []
+    for k, fr in enumerate(clip["frames"]):
+        frame[0] = k
+        statuses.append(tr.process(k, k / 20.0, fr).status)
+    assert statuses == ["initialised", "tracked", "tracked"]
+    # frame 1 scores the leg lengths (leg_length_frames = 1): no search there or before
+    assert calls and min(calls) == 2, calls
