@@ -157,7 +157,6 @@ def test_no_arm_search_while_the_leg_length_is_scored(walking_frames: dict, monk
     """The leg-length trials weigh bodies against each other: arms searched on the body in use
     would favour its length. The search starts once the length is fixed."""
     import tracker.pipeline as pipeline
-    from tracker.pipeline import Tracker
 
     frame, calls = [0], []
     real = pipeline.search_arms
@@ -180,7 +179,7 @@ def test_no_arm_search_while_the_leg_length_is_scored(walking_frames: dict, monk
         }
     )
     clip = walking_frames
-    tr = Tracker(clip["cams"], cfg, rng=np.random.default_rng(0), backgrounds=clip["bgs"])
+    tr = pipeline.Tracker(clip["cams"], cfg, rng=np.random.default_rng(0), backgrounds=clip["bgs"])
     statuses = []
     for k, fr in enumerate(clip["frames"]):
         frame[0] = k
