@@ -98,6 +98,31 @@ def test_select_distinct_matches_a_full_sort_with_ties_and_duplicates() -> None:
             assert select_distinct(poses, w, m).tolist() == expect[:m]
 
 
+@pytest.mark.parametrize("collide", [False, True])
+def test_row_groups_are_exact_even_when_hashes_collide(
+    collide: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Rows are grouped by a hash of their bytes, and by the bytes when two hashes collide
+    (here every hash is forced to 0); -0.0 and 0.0 differ in their bytes, so stay apart."""
+    from tracker.filters import base
+
+    if collide:
+        monkeypatch.setattr(base, "_row_hashes", lambda rows: np.zeros(len(rows), np.uint64))
+    rng = np.random.default_rng(5)
+    rows = rng.normal(size=(6, N_DOF))[rng.integers(0, 6, 300)]
+    rows[:40, 3] = 0.0
+    rows[40:80, 3] = -0.0
+    first, group = base.row_groups(rows)
+    keys = [r.tobytes() for r in rows]
+    assert len(first) == len(set(keys))
+    for i, g in enumerate(group):
+        assert keys[first[g]] == keys[i]
+        assert first[g] == keys.index(keys[i])  # the first occurrence
+    assert select_distinct(rows, np.ones(300), 500).tolist() == sorted(
+        keys.index(k) for k in set(keys)
+    )
+
+
 def test_resample_systematic_is_proportional() -> None:
     rng = np.random.default_rng(1)
     w = np.array([0.0, 1.0, 3.0, 0.0])

@@ -86,12 +86,41 @@ def select_distinct(poses: np.ndarray, weights: np.ndarray, m: int) -> np.ndarra
     return _distinct_sorted(poses, w, np.arange(n), m)
 
 
+#: Odd multipliers of the row hash (:func:`_row_hashes`), one per column; fixed, not random.
+_HASH_MULT = (np.random.default_rng(0x5E1EC7).integers(0, 2**62, size=N_DOF) * 2 + 1).astype(
+    np.uint64
+)
+
+
+def _row_hashes(rows: np.ndarray) -> np.ndarray:
+    """A uint64 hash of each row's bytes (N, D) float64 -> (N,): equal rows, equal hashes."""
+    bits = rows.view(np.uint64)
+    d = bits.shape[1]
+    mult = _HASH_MULT[:d] if d <= _HASH_MULT.size else np.resize(_HASH_MULT, d)
+    return (bits * mult).sum(axis=1, dtype=np.uint64)  # wraps modulo 2**64
+
+
+def row_groups(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Group identical rows (bytes equal) of ``rows`` (N, D) float64.
+
+    Returns ``(first, group)``: the index of the first row of each group (in increasing order
+    of an arbitrary group key, not of position) and the group of every row (into ``first``).
+    The rows are grouped by a hash of their bytes (a sort of integers, much faster than one of
+    byte strings); when some row differs from its group's first row (a hash collision) they are
+    grouped by the bytes themselves. Exact either way.
+    """
+    r = np.ascontiguousarray(rows, dtype=np.float64)
+    _, first, group = np.unique(_row_hashes(r), return_index=True, return_inverse=True)
+    bits = r.view(np.uint64)
+    if not np.array_equal(bits, bits[first[group]]):
+        void = r.view(np.dtype((np.void, r.dtype.itemsize * r.shape[1]))).ravel()
+        _, first, group = np.unique(void, return_index=True, return_inverse=True)
+    return first, group
+
+
 def _distinct_sorted(poses: np.ndarray, w: np.ndarray, cand: np.ndarray, m: int) -> np.ndarray:
     order = cand[np.lexsort((cand, -w[cand]))]  # weight descending, then index ascending
-    sorted_poses = np.ascontiguousarray(poses[order])
-    # Identical rows have identical bytes: unique over a void view is exact.
-    rows = sorted_poses.view(np.dtype((np.void, sorted_poses.dtype.itemsize * poses.shape[1])))
-    _, first = np.unique(rows.ravel(), return_index=True)
+    first, _ = row_groups(poses[order])  # np.unique's first index is the first occurrence
     first.sort()
     return order[first[:m]]
 
@@ -250,6 +279,7 @@ __all__ = [
     "Filter",
     "Likelihood",
     "resample_systematic",
+    "row_groups",
     "select_distinct",
     "sigma_vector",
     "split_budget",

@@ -49,7 +49,13 @@ import numpy as np
 
 from tracker.config import IPFConfig
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, ROOT_DOFS
-from tracker.filters.base import Filter, Likelihood, select_distinct, sigma_vector
+from tracker.filters.base import (
+    Filter,
+    Likelihood,
+    row_groups,
+    select_distinct,
+    sigma_vector,
+)
 
 
 class IntervalParticleFilter(Filter):
@@ -113,9 +119,7 @@ class IntervalParticleFilter(Filter):
         cap = self.config.max_per_group
         if cap > 0:
             idx = select_distinct(self.particles, self.weights, self.M * cap)
-            r = np.ascontiguousarray(self.particles[idx][:, self.R])
-            rows = r.view(np.dtype((np.void, r.dtype.itemsize * r.shape[1]))).ravel()
-            _, group = np.unique(rows, return_inverse=True)
+            _, group = row_groups(self.particles[idx][:, self.R])  # the rank needs no order
             order = np.argsort(group, kind="stable")
             g_sorted = group[order]
             first = np.searchsorted(g_sorted, g_sorted, side="left")
