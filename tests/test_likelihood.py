@@ -198,6 +198,26 @@ def test_weight_from_counts() -> None:
         weight_from_counts(c, "dice")  # type: ignore[arg-type]
 
 
+@pytest.mark.parametrize("measure", ["iou", "ratio"])
+def test_weight_from_counts_is_bit_identical_to_the_numpy_formula(measure: str) -> None:
+    """The numba pass (up to 7 cameras) and numpy's (more) give numpy's mean bit for bit."""
+    rng = np.random.default_rng(11)
+    for k in range(1, 10):
+        c = rng.integers(0, 20_000, (6, 5, 7, k, 3))
+        c[rng.random(c.shape) < 0.2] = 0  # empty cameras: iou 0, ratio's floor of 1 pixel
+        f = c.astype(np.float64)
+        if measure == "iou":
+            den = f[..., 0] + f[..., 1] + f[..., 2]
+            per_cam = np.divide(f[..., 0], den, out=np.zeros_like(den), where=den > 0)
+        else:
+            per_cam = f[..., 0] / np.maximum(f[..., 1] + f[..., 2], 1.0)
+        expect = per_cam.mean(axis=-1)
+        got = weight_from_counts(c, measure)  # type: ignore[arg-type]
+        assert got.shape == (6, 5, 7)
+        assert np.array_equal(got, expect), k
+        assert np.array_equal(weight_from_counts(f, measure), expect), k  # type: ignore[arg-type]
+
+
 @pytest.mark.parametrize("hem", [None, (1.0, 0.08)])
 def test_weights_factored_equals_expanded(
     body: BodyModel, cameras: list[Camera], hem: tuple[float, float] | None
