@@ -247,3 +247,45 @@ def test_work_scale_gives_full_resolution_results(
         assert abs(y - ys.min()) <= tol and abs(y + h - 1 - ys.max()) <= tol
     only = keep_blobs(seg, [seg.blobs[0]])
     assert only.mask_full.sum() == seg.blobs[0].area
+
+
+def _clean_whole_frame(seg: Segmenter, fg: np.ndarray) -> tuple[np.ndarray, list[tuple]]:
+    """The reference for Segmenter.clean: morphology and labelling over the whole frame."""
+    c = seg.config
+    m = fg.astype(np.uint8)
+    for op, size in ((cv2.MORPH_OPEN, c.open_kernel), (cv2.MORPH_CLOSE, c.close_kernel)):
+        if size > 1:
+            m = cv2.morphologyEx(m, op, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size)))
+    n, labels, stats, cents = cv2.connectedComponentsWithStats(m, connectivity=8)
+    min_area = max(c.min_blob_fraction * m.size, float(c.min_blob_pixels), 1.0)
+    keep = [k for k in range(1, n) if stats[k, cv2.CC_STAT_AREA] >= min_area]
+    keep.sort(key=lambda k: -stats[k, cv2.CC_STAT_AREA])  # stable: ties by label
+    relabel = np.zeros(n, np.int32)
+    relabel[keep] = np.arange(1, len(keep) + 1)
+    blobs = [
+        (int(stats[k, 4]), tuple(int(v) for v in stats[k, :4]), (cents[k, 0], cents[k, 1]))
+        for k in keep
+    ]
+    return relabel[labels], blobs
+
+
+@pytest.mark.parametrize("kernels", [(3, 5), (1, 1), (5, 9)])
+def test_clean_inside_the_foreground_box_equals_the_whole_frame(kernels: tuple[int, int]) -> None:
+    """clean() works inside the foreground's box plus a margin: the same labels, areas, boxes
+    and centroids (bit for bit) as over the whole frame, blobs at the borders and noise too."""
+    rng = np.random.default_rng(8)
+    cfg = SegmentationConfig(open_kernel=kernels[0], close_kernel=kernels[1], min_blob_fraction=0)
+    for trial in range(150):
+        h, w = int(rng.integers(3, 130)), int(rng.integers(3, 170))
+        fg = np.zeros((h, w), bool)
+        for _ in range(int(rng.integers(0, 6))):
+            y0, x0 = int(rng.integers(0, h)), int(rng.integers(0, w))
+            y1, x1 = y0 + int(rng.integers(1, 40)), x0 + int(rng.integers(1, 40))
+            fg[max(0, y0 - 20) : y1, max(0, x0 - 20) : x1] = True
+        fg |= rng.random((h, w)) < rng.choice([0.0, 0.002, 0.03])
+        seg = Segmenter(cfg, background=np.zeros((h, w, 3), np.uint8))
+        mask, labels, blobs = seg.clean(fg)
+        ref_labels, ref_blobs = _clean_whole_frame(seg, fg)
+        assert np.array_equal(labels, ref_labels), trial
+        assert np.array_equal(mask, ref_labels > 0), trial
+        assert [(b.area, b.bbox, b.centroid) for b in blobs] == ref_blobs, trial
