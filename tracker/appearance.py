@@ -106,7 +106,7 @@ def lab_image(frame: np.ndarray, size: tuple[int, int], lightness_weight: float)
     return np.ascontiguousarray(lab)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def score_maps_kernel(
     img: np.ndarray, mask: np.ndarray, ref: np.ndarray, inv2s2: np.ndarray, on: np.ndarray
 ) -> np.ndarray:
@@ -135,7 +135,7 @@ def score_maps_kernel(
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _sums_range(
     lo: int,
     hi: int,
@@ -178,7 +178,7 @@ def _sums_range(
             out[i, k] = acc
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _colour_sums_serial(
     pts: np.ndarray,
     sel: np.ndarray,
@@ -195,7 +195,7 @@ def _colour_sums_serial(
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _factors_serial(
     pts: np.ndarray,
     sel: np.ndarray,
@@ -225,7 +225,7 @@ def _factors_serial(
 SERIAL_BELOW = 64
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, nogil=True)
 def colour_sums_kernel(
     pts: np.ndarray,
     sel: np.ndarray,

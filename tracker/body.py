@@ -504,7 +504,7 @@ def _rot_apply(rots: np.ndarray, f: int, axis: int, angle: float) -> None:
             rots[f, i, 1] = -r0 * s + r1 * c
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _fk_range(
     lo: int,
     hi: int,
@@ -567,7 +567,7 @@ def _fk_range(
                 )
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, nogil=True)
 def _fk_batch(
     poses: np.ndarray,
     parent: np.ndarray,

@@ -41,7 +41,7 @@ _ARM: Final[tuple[str, ...]] = tuple(c.name for c in CAPSULES if c.segment in GI
 ARM_TRUNK_PAIRS: Final[tuple[tuple[str, str], ...]] = tuple((a, t) for a in _ARM for t in _TRUNK)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _segment_closest(p0, p1, q0, q1) -> tuple[float, float, float]:  # pragma: no cover (numba)
     """Closest points of segments p0-p1 and q0-q1 (3-vectors): (s, t, distance), s and t in
     [0, 1] along each; a zero-length segment is a point (Ericson, Real-Time Collision Detection,
@@ -81,7 +81,7 @@ def _segment_closest(p0, p1, q0, q1) -> tuple[float, float, float]:  # pragma: n
     return s, t, np.sqrt(dx * dx + dy * dy + dz * dz)
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, nogil=True)
 def _depths_kernel(pts, cap_ab, radii, ia, ib):  # pragma: no cover (numba)
     n, npair = pts.shape[0], ia.shape[0]
     out = np.empty((n, npair))

@@ -66,7 +66,7 @@ def weight_from_counts(counts: np.ndarray, measure: Measure = "iou") -> np.ndarr
 _KERNEL_MAX_CAMERAS = 7
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _weights_kernel(counts: np.ndarray, ratio: bool) -> np.ndarray:
     """(R, K, 3) int64 counts -> (R,) weights: :func:`weight_from_counts` in one pass."""
     n, k = counts.shape[0], counts.shape[1]

@@ -398,7 +398,7 @@ def _reset_bbox(bbox: np.ndarray, slot: int) -> None:
     bbox[slot, 3] = -1
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def render_capsules(
     pts: np.ndarray,
     i: int,
@@ -459,7 +459,7 @@ def _count_clear(
     return tot, com
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _counts_range(
     lo: int,
     hi: int,
@@ -490,7 +490,7 @@ def _counts_range(
             out[i, k, 2] = tot - com
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, nogil=True)
 def counts_kernel(
     pts: np.ndarray,
     cap_ab: np.ndarray,
@@ -537,7 +537,7 @@ def counts_kernel(
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _factored_range(
     lo: int,
     hi: int,
@@ -655,7 +655,7 @@ def _factored_range(
                     mask[sl, y, x] = 0
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, nogil=True)
 def counts_factored_kernel(
     pts_base: np.ndarray,
     pts_left: np.ndarray,
@@ -706,7 +706,7 @@ def counts_factored_kernel(
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def render_one_kernel(
     pts: np.ndarray,
     cap_ab: np.ndarray,
