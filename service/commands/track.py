@@ -41,6 +41,7 @@ import itertools
 import logging
 import sys
 import time
+from contextlib import closing
 from pathlib import Path
 
 import numpy as np
@@ -181,6 +182,7 @@ def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from service.poselog import PoseLogWriter
+    from service.prefetch import prefetched
     from service.video import open_videos
     from tracker.camera import load_cameras
     from tracker.pipeline import Tracker
@@ -298,11 +300,19 @@ def run(args: argparse.Namespace) -> int:
                 )
 
         try:
-            for index, time_s, frames in itertools.islice(videos, args.max_frames):
-                res = tracker.process(index, time_s, frames)
-                smooth(queue.push(res, tracker.pending_from))
-                bar.update(1)
-                bar.set_postfix(weight=f"{res.weight:.2f}", refresh=False)
+            # The next frames are decoded and segmented in a second thread meanwhile.
+            with closing(
+                prefetched(
+                    itertools.islice(videos, args.max_frames),
+                    lambda step: tracker.segment(step.frames),
+                    name="decode+segment",
+                )
+            ) as steps:
+                for (index, time_s, frames), segs in steps:
+                    res = tracker.process_segmentations(index, time_s, segs, frames)
+                    smooth(queue.push(res, tracker.pending_from))
+                    bar.update(1)
+                    bar.set_postfix(weight=f"{res.weight:.2f}", refresh=False)
         finally:  # the frames still held (revision, smoothing) are written, even after an error
             smooth(queue.flush())
             write(smoother.flush())
