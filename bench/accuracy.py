@@ -506,6 +506,7 @@ def track(
         backgrounds=bgs,
         occluders=occluders,
     )
+    from tracker.leglabels import relabel_legs
     from tracker.revision import ResultQueue
     from tracker.smoothing import RESTART_STATUSES, smooth_keypoints
 
@@ -557,7 +558,14 @@ def track(
     if joints:
         # the key points as `gaitwatch track` writes them (tracker.smoothing; the settings'
         # [smoothing] section, on by default)
-        raw = np.stack(joints)
+        raw, _ = relabel_legs(
+            np.array(out_t),
+            np.stack(joints),
+            cfg.leg_labels,
+            fps,
+            np.array(restarts),
+            frames=np.array(out_f),
+        )
         smoothed = smooth_keypoints(
             np.array(out_t), raw, cfg.smoothing, fps, np.array(restarts), frames=np.array(out_f)
         )

@@ -1015,6 +1015,32 @@ class SmoothingConfig(_Model):
     ] = 0.5
 
 
+class LegLabelConfig(_Model):
+    """Which leg is which in the key points written by ``gaitwatch track``
+    (:mod:`tracker.leglabels`): each frame keeps the tracker's labels or has the legs' key
+    points exchanged, whichever makes the feet move most smoothly, decided ``lag_s`` later."""
+
+    enabled: Annotated[
+        bool, Field(description="Choose each frame's leg labelling by smooth motion")
+    ] = True
+    lag_s: Annotated[
+        float,
+        Field(ge=0, le=5, description="A frame's labelling is decided this long after it, s"),
+    ] = 0.5
+    swap_cost_m2: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=10,
+            description="Cost of each frame whose labels are exchanged (m^2; the motion cost is "
+            "the summed squared second difference of 8 leg points, m^2)",
+        ),
+    ] = 0.03
+    max_gap_s: Annotated[
+        float, Field(gt=0, le=10, description="A longer step between two frames ends a segment")
+    ] = 0.5
+
+
 class ReviseConfig(_Model):
     """Backward pass over the first frames of a track (``Tracker`` attaches the result to a
     later frame's :class:`tracker.pipeline.FrameResult` as ``revisions``).
@@ -1090,6 +1116,7 @@ class TrackerConfig(_Model):
     ] = None
     origin: OriginSearchConfig = Field(default_factory=OriginSearchConfig)
     init: InitConfig = Field(default_factory=InitConfig)
+    leg_labels: LegLabelConfig = Field(default_factory=LegLabelConfig)
     smoothing: SmoothingConfig = Field(default_factory=SmoothingConfig)
     revise: ReviseConfig = Field(default_factory=ReviseConfig)
     redetect: RedetectConfig = Field(default_factory=RedetectConfig)

@@ -13,9 +13,11 @@
 One VIDEO (a file OpenCV reads, or a folder of numbered PNG/JPEG frames) per ``--camera``, in the
 same order. Frames are processed one at a time (memory does not grow with the footage) and each is
 written to the pose log as soon as it is final: a pose, or a "no pose" status with its reason.
-The key points of each continuous track are smoothed over 0.45 s (:mod:`tracker.smoothing`, a
-centred quadratic fit; ``--no-smoothing`` or ``[smoothing]`` in ``--config`` to change), so a
-frame is written about a quarter of a second of footage after it was read. The first frames of
+Each frame's leg labels are chosen by smooth motion of the feet half a second later
+(:mod:`tracker.leglabels`; ``[leg_labels]`` in ``--config``), then the key points of each
+continuous track are smoothed over 0.45 s (:mod:`tracker.smoothing`, a centred quadratic fit;
+``--no-smoothing`` or ``[smoothing]`` in ``--config`` to change), so a frame is written about
+three quarters of a second of footage after it was read. The first frames of
 each track, from the initial search until the track has settled 0.9 s after its last
 re-initialisation, are tracked again backwards from the settled state (:class:`tracker.config.
 ReviseConfig`; ``--no-revise`` or ``[revise]`` in ``--config``) and written as revised: those
@@ -185,6 +187,7 @@ def run(args: argparse.Namespace) -> int:
     from service.prefetch import prefetched
     from service.video import open_videos
     from tracker.camera import load_cameras
+    from tracker.leglabels import LegRelabeller
     from tracker.pipeline import Tracker
     from tracker.revision import ResultQueue
     from tracker.smoothing import RESTART_STATUSES, KeypointSmoother
@@ -243,6 +246,7 @@ def run(args: argparse.Namespace) -> int:
         total = min(total, args.max_frames) if total else args.max_frames
     out = Path(args.out)
     n_pose = n_none = 0
+    relabeller = LegRelabeller.from_config(config.leg_labels, cameras[0].fps)
     smoother = KeypointSmoother.from_config(config.smoothing, cameras[0].fps)
     queue = ResultQueue()  # results still open to the backward pass (config.revise)
     t0 = time.perf_counter()
@@ -288,10 +292,14 @@ def run(args: argparse.Namespace) -> int:
                 for note in res.notes:
                     writer.write_note(index, time_s, note)
 
-        def smooth(final: list) -> None:
+        def smooth(labelled: list) -> None:
+            for f in labelled:
+                write(smoother.push(f.time_s, f.joints, f.item, restart=f.restart))
+
+        def relabel(final: list) -> None:
             for res in final:
-                write(
-                    smoother.push(
+                smooth(
+                    relabeller.push(
                         res.time_s,
                         res.joints if res.has_pose else None,
                         res,
@@ -310,11 +318,12 @@ def run(args: argparse.Namespace) -> int:
             ) as steps:
                 for (index, time_s, frames), segs in steps:
                     res = tracker.process_segmentations(index, time_s, segs, frames)
-                    smooth(queue.push(res, tracker.pending_from))
+                    relabel(queue.push(res, tracker.pending_from))
                     bar.update(1)
                     bar.set_postfix(weight=f"{res.weight:.2f}", refresh=False)
         finally:  # the frames still held (revision, smoothing) are written, even after an error
-            smooth(queue.flush())
+            relabel(queue.flush())
+            smooth(relabeller.flush())
             write(smoother.flush())
     elapsed = time.perf_counter() - t0
     n = n_pose + n_none
