@@ -33,6 +33,7 @@ import numpy as np
 
 from gaitwatch.conventions import L_ANKLE, L_HEEL, L_KNEE, L_TOE, R_ANKLE, R_HEEL, R_KNEE, R_TOE
 from tracker.config import LegLabelConfig
+from tracker.smoothing import segment_starts
 
 #: The key points exchanged with the other leg's, and scored (knee, ankle, heel, toe).
 LEFT_POINTS: tuple[int, ...] = (L_KNEE, L_ANKLE, L_HEEL, L_TOE)
@@ -214,12 +215,8 @@ def relabel_legs(
     ``restarts`` and ``frames`` as in :func:`tracker.smoothing.smooth_keypoints`. Returns the
     relabelled joints (T, 19, 3) and which frames were exchanged (T,) bool."""
     rl = LegRelabeller.from_config(config, fps)
-    flags = np.zeros(len(times), dtype=bool) if restarts is None else np.asarray(restarts, bool)
-    if frames is not None:
-        f = np.asarray(frames)
-        flags = flags | np.concatenate([[True], np.diff(f) != 1])[: len(flags)]
     out: list[LabelledFrame] = []
-    for t, j, r in zip(times, joints, flags, strict=True):
+    for t, j, r in zip(times, joints, segment_starts(len(times), restarts, frames), strict=True):
         out += rl.push(float(t), j, restart=bool(r))
     out += rl.flush()
     if not out:

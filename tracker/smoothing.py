@@ -174,6 +174,18 @@ class KeypointSmoother:
         return out
 
 
+def segment_starts(
+    n: int, restarts: np.ndarray | None = None, frames: np.ndarray | None = None
+) -> np.ndarray:
+    """(n,) bool: the frames that start a segment in the whole-footage forms, ``restarts`` (a
+    track starts) or a frame number that does not follow the previous one's."""
+    flags = np.zeros(n, dtype=bool) if restarts is None else np.asarray(restarts, bool)
+    if frames is not None:
+        f = np.asarray(frames)
+        flags = flags | np.concatenate([[True], np.diff(f) != 1])[:n]
+    return flags
+
+
 def smooth_keypoints(
     times: np.ndarray,
     joints: np.ndarray,
@@ -188,11 +200,7 @@ def smooth_keypoints(
     segment. Returns the smoothed (T, K, 3)."""
     sm = KeypointSmoother.from_config(config, fps)
     out: list[np.ndarray] = []
-    flags = np.zeros(len(times), dtype=bool) if restarts is None else np.asarray(restarts, bool)
-    if frames is not None:
-        f = np.asarray(frames)
-        flags = flags | np.concatenate([[True], np.diff(f) != 1])[: len(flags)]
-    for t, j, r in zip(times, joints, flags, strict=True):
+    for t, j, r in zip(times, joints, segment_starts(len(times), restarts, frames), strict=True):
         out += [f.joints for f in sm.push(float(t), j, restart=bool(r))]
     out += [f.joints for f in sm.flush()]
     return np.stack(out) if out else np.zeros_like(np.asarray(joints, dtype=np.float64))
