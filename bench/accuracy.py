@@ -916,6 +916,8 @@ def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float
     tcfg = load_tracker_config(args.config) if args.config else TrackerConfig()
     sm, rv = tcfg.smoothing, tcfg.revise
     smoothing_text = f"{sm.window_s} s window, order {sm.order}" if sm.enabled else "off"
+    lg = tcfg.leg_labels
+    legs_text = f"decided {lg.lag_s} s later" if lg.enabled else "off"
     revise_text = f"settled after {rv.settle_s} s" if rv.enabled else "off"
     settings_text = (
         f"tracker settings `{args.config}` over the defaults ("
@@ -950,8 +952,10 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
         else " (the tracker is not told where)"
     }.
 - Scored: the key points as `gaitwatch track` writes them: each track's first frames revised
-  by the backward pass (the settings' `[revise]`: {revise_text}), smoothed over each continuous
-  track (`tracker.smoothing`, the settings' `[smoothing]`: {smoothing_text}).
+  by the backward pass (the settings' `[revise]`: {revise_text}), each frame's leg labels
+  chosen by smooth motion of the feet (`tracker.leglabels`, the settings' `[leg_labels]`:
+  {legs_text}), smoothed over each continuous track (`tracker.smoothing`, the settings'
+  `[smoothing]`: {smoothing_text}).
 - Metrics (`gaitwatch.evaluation`): mean per-joint position error over the 19 key points and
   over the lower limbs (hips, knees, ankles, heels, toes), per group; hip and knee flexion RMSE
   (gait.kinematics, both sides); L/R swap = share of tracked frames where exchanging the
