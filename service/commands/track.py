@@ -321,7 +321,8 @@ def run(args: argparse.Namespace) -> int:
                     relabel(queue.push(res, tracker.pending_from))
                     bar.update(1)
                     bar.set_postfix(weight=f"{res.weight:.2f}", refresh=False)
-        finally:  # the frames still held (revision, smoothing) are written, even after an error
+        finally:  # the frames still held (revision, leg labels, smoothing) are written, even after
+            # an error
             relabel(queue.flush())
             smooth(relabeller.flush())
             write(smoother.flush())
