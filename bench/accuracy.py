@@ -506,9 +506,9 @@ def track(
         backgrounds=bgs,
         occluders=occluders,
     )
-    from tracker.leglabels import relabel_legs
+    from tracker.output import written_keypoints
     from tracker.revision import ResultQueue
-    from tracker.smoothing import RESTART_STATUSES, smooth_keypoints
+    from tracker.smoothing import RESTART_STATUSES
 
     out_f, out_t, joints, times_ms, ev_tr, ev_init, statuses = [], [], [], [], [], [], []
     restarts: list[bool] = []
@@ -556,18 +556,15 @@ def track(
             joints.append(r.joints)
             restarts.append(r.status in RESTART_STATUSES)
     if joints:
-        # the key points as `gaitwatch track` writes them (tracker.smoothing; the settings'
-        # [smoothing] section, on by default)
-        raw, _ = relabel_legs(
+        # the key points as `gaitwatch track` writes them (tracker.output: the settings'
+        # [leg_labels] and [smoothing] sections, both on by default)
+        smoothed = written_keypoints(
             np.array(out_t),
             np.stack(joints),
-            cfg.leg_labels,
+            cfg,
             fps,
             np.array(restarts),
             frames=np.array(out_f),
-        )
-        smoothed = smooth_keypoints(
-            np.array(out_t), raw, cfg.smoothing, fps, np.array(restarts), frames=np.array(out_f)
         )
         est = Trajectory(positions=smoothed, times=np.array(out_t), frames=out_f, fps=fps)
     else:

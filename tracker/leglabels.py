@@ -148,30 +148,27 @@ class LegRelabeller:
         #: Per frame from the segment's third on: the best label two frames back for each
         #: state (2, 2); the segment's frames before the oldest held one are not needed.
         self._back: deque[np.ndarray] = deque()
-        self._n = 0  # frames of the segment so far
 
     def _add(self, frame: LabelledFrame) -> None:
         assert frame.joints is not None
         legs = frame.joints[_LEFT + _RIGHT]
         x = np.stack([legs, np.concatenate([legs[4:], legs[:4]])])  # (2 labels, 8, 3)
         c = self.swap_cost
-        if self._n == 0:
-            self._cost = None
-        elif self._n == 1:
-            self._cost = np.array([[c * (a + b) for b in range(2)] for a in range(2)])
-        else:
+        labels = np.arange(2)
+        if len(self._prev) == 1:  # the segment's second frame
+            self._cost = c * (labels[:, None] + labels[None, :])
+        elif len(self._prev) == 2:
             p2, p1 = self._prev
             assert self._cost is not None
             # acc[a, b, c]: squared second difference with labels a (t-2), b (t-1), c (t)
             d = x[None, None, :] - 2.0 * p1[None, :, None] + p2[:, None, None]
             acc = np.einsum("abcpk,abcpk->abc", d, d)
-            total = self._cost[:, :, None] + acc + c * np.arange(2)[None, None, :]
+            total = self._cost[:, :, None] + acc + c * labels[None, None, :]
             back = np.argmin(total, axis=0)  # (b, c): the best a
             self._cost = np.take_along_axis(total, back[None], axis=0)[0]
             self._back.append(back)
         self._prev = [*self._prev[-1:], x]
         self._frames.append(frame)
-        self._n += 1
 
     def _best_path(self) -> list[int]:
         """Labels of the segment's frames along the best path ending at the newest frame (at
@@ -197,7 +194,8 @@ class LegRelabeller:
 
     @staticmethod
     def _apply(frame: LabelledFrame, exchange: bool) -> LabelledFrame:
-        if exchange and frame.joints is not None:
+        if exchange:  # held frames all have joints
+            assert frame.joints is not None
             frame.joints = exchange_legs(frame.joints)
             frame.exchanged = True
         return frame

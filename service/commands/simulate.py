@@ -150,10 +150,10 @@ def tracker_callable(seed: int = 0):
     (``tracker.pipeline.Tracker``) on a rendered clip, given the empty-scene backgrounds and the
     true stature."""
     from gaitwatch.trajectory import Trajectory
-    from tracker.leglabels import relabel_legs
+    from tracker.output import written_keypoints
     from tracker.pipeline import Tracker
     from tracker.revision import ResultQueue
-    from tracker.smoothing import RESTART_STATUSES, smooth_keypoints
+    from tracker.smoothing import RESTART_STATUSES
 
     def track(clip) -> Trajectory:
         tracker = Tracker(
@@ -177,18 +177,10 @@ def tracker_callable(seed: int = 0):
         if not frames:
             return Trajectory(positions=np.zeros((0, 19, 3)), times=np.zeros(0), frames=[])
         # as `gaitwatch track` writes them
-        relabelled, _ = relabel_legs(
+        smoothed = written_keypoints(
             np.array(times),
             np.stack(joints),
-            tracker.config.leg_labels,
-            clip.fps,
-            np.array(restarts),
-            frames=np.array(frames),
-        )
-        smoothed = smooth_keypoints(
-            np.array(times),
-            relabelled,
-            tracker.config.smoothing,
+            tracker.config,
             clip.fps,
             np.array(restarts),
             frames=np.array(frames),

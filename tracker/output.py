@@ -1,0 +1,27 @@
+"""The key points ``gaitwatch track`` writes, for a whole footage at once: each frame's leg
+labels (:mod:`tracker.leglabels`), then the smoothing (:mod:`tracker.smoothing`). The benchmark
+and ``gaitwatch simulate --advise`` score these; ``gaitwatch track`` runs the same two stages as
+streams."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tracker.config import TrackerConfig
+from tracker.leglabels import relabel_legs
+from tracker.smoothing import smooth_keypoints
+
+
+def written_keypoints(
+    times: np.ndarray,
+    joints: np.ndarray,
+    config: TrackerConfig,
+    fps: float,
+    restarts: np.ndarray | None = None,
+    frames: np.ndarray | None = None,
+) -> np.ndarray:
+    """``joints`` (T, 19, 3) of the frames with a pose at ``times`` (T,) -> the written (T, 19,
+    3), with ``config.leg_labels`` and ``config.smoothing``; ``restarts`` and ``frames`` as in
+    :func:`tracker.smoothing.smooth_keypoints`."""
+    labelled, _ = relabel_legs(times, joints, config.leg_labels, fps, restarts, frames)
+    return smooth_keypoints(times, labelled, config.smoothing, fps, restarts, frames)
