@@ -1,0 +1,77 @@
+"""The accuracy benchmark's view specs: views, occluder, camera height and field of view."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def accuracy():
+    spec = importlib.util.spec_from_file_location("bench_accuracy", REPO / "bench" / "accuracy.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["bench_accuracy"] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    yield module
+    sys.modules.pop("bench_accuracy", None)
+
+
+@pytest.mark.parametrize(
+    ("text", "views", "occluder", "height", "fov", "default"),
+    [
+        ("oblique", ("oblique",), "none", None, None, True),
+        ("side+frontal@table", ("side", "frontal"), "table", None, None, True),
+        ("oblique:h1.2", ("oblique",), "none", 1.2, None, False),
+        ("side+frontal@sofa:h2.55:f100", ("side", "frontal"), "sofa", 2.55, 100.0, False),
+        ("oblique:f90:h1.5", ("oblique",), "none", 1.5, 90.0, False),
+    ],
+)
+def test_view_spec_parses_and_round_trips(accuracy, text, views, occluder, height, fov, default):
+    v = accuracy.ViewSpec.parse(text)
+    assert (v.views, v.occluder, v.camera_height_m, v.hfov_deg) == (views, occluder, height, fov)
+    assert v.default_placement is default
+    assert accuracy.ViewSpec.parse(v.label) == v
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("top", "views must be among"),
+        ("oblique@bed", "occluder must be"),
+        ("oblique:x1", "not a camera height"),
+        ("oblique:h", "not a camera height"),
+        ("oblique:h1:h2", "not a camera height"),
+        ("oblique:hnan", "not a camera height"),
+        ("oblique:h9", "camera height must be within"),
+        ("oblique:f10", "field of view must be within"),
+    ],
+)
+def test_view_spec_rejects_bad_specs(accuracy, text, match):
+    with pytest.raises(ValueError, match=match):
+        accuracy.ViewSpec.parse(text)
+
+
+def test_bad_view_spec_on_the_command_line_exits_cleanly(accuracy):
+    args = accuracy.parse_args(["--recordings", "07_06", "--views", "oblique:h0.1"])
+    with pytest.raises(SystemExit, match="camera height"):
+        accuracy.make_plan(args)
+
+
+def test_scene_cameras_at_the_requested_height(accuracy):
+    if not (accuracy.DATA / accuracy.RECORDINGS["07_06"].path).is_file():
+        pytest.skip(f"shared recordings not found under {accuracy.DATA}")
+    low = accuracy.build(
+        "07_06", accuracy.ViewSpec.parse("side+frontal:h1.2:f90"), 4, 0, accuracy.DATA
+    )
+    default = accuracy.build("07_06", accuracy.ViewSpec.parse("side+frontal"), 4, 0, accuracy.DATA)
+    assert np.allclose([c.center[2] for c in low.cameras], 1.2)
+    assert np.allclose([c.center[2] for c in default.cameras], 2.3)
+    assert low.config.hfov_deg == 90.0
+    # Same walk, other cameras: the truth does not depend on the placement.
+    assert np.array_equal(low.truth.positions, default.truth.positions)
