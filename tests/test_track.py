@@ -379,6 +379,36 @@ def test_heading_check_turns_a_backward_track(clip: dict) -> None:
     assert abs(wrap_angle(res.pose[yaw] - clip["poses"][8, yaw])) < np.radians(30)
 
 
+def test_walking_direction_auto_falls_back_on_the_silhouettes(clip: dict) -> None:
+    """``heading_check.source`` "auto": the estimate's path when it is a walk, else the
+    silhouettes' floor point's (a track stuck while the person walks)."""
+    tracker = _tracker_after_first_frame(clip)
+    assert tracker.config.heading_check.source == "auto"
+    pose = tracker.prev_pose.copy()
+    t = np.arange(6) * 0.05
+
+    def walk(estimate_v, floor_v):
+        # (time, estimate x, y, floor point x, y); the last entry is the current frame's.
+        path = [(ti, *(np.asarray(estimate_v) * ti), *(np.asarray(floor_v) * ti)) for ti in t]
+        tracker._path = path[:-1]
+        pose[:2] = path[-1][1:3]
+        tracker._floor_now = np.asarray(path[-1][3:5])
+        return {
+            s: tracker._walking_direction(pose, t[-1], s, 0.4)
+            for s in ("estimate", "silhouette", "auto")
+        }
+
+    stuck = walk((0.0, 0.0), (0.0, 1.0))  # the track stays, the silhouettes walk along +y
+    assert stuck["estimate"] is None
+    assert stuck["silhouette"] == pytest.approx(np.pi / 2)
+    assert stuck["auto"] == stuck["silhouette"]
+    both = walk((1.0, 0.0), (0.0, 1.0))  # both walk: the estimate's path decides
+    assert both["estimate"] == pytest.approx(0.0)
+    assert both["auto"] == both["estimate"]
+    still = walk((0.0, 0.0), (0.0, 0.0))  # nobody walks
+    assert still["auto"] is None
+
+
 def test_leg_swap_check_unswaps_the_legs(clip: dict) -> None:
     from tracker.dof import LEFT_LEG, RIGHT_LEG
 

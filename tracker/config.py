@@ -552,7 +552,9 @@ class HeadingCheckConfig(_Model):
     direction more than ``max_angle_deg`` away from the estimated heading, the initial
     search is re-run with headings within ``span_deg`` of the walking direction at the current
     position; its result replaces the track when it weighs at least ``accept_ratio`` times the
-    current estimate. People seldom walk backwards.
+    current estimate. People seldom walk backwards. The walking direction (``source``
+    "auto") is the estimated origin's, or the silhouettes' floor point's when the estimate's
+    path is not a walk: a track stuck facing the wrong way does not move with the person.
 
     Turn following (``turn_*``): when the heading is more than ``turn_angle_deg`` (and at most
     ``max_angle_deg``) off the walking direction of the silhouettes' floor points, the reduced
@@ -565,13 +567,15 @@ class HeadingCheckConfig(_Model):
 
     enabled: bool = True
     source: Annotated[
-        Literal["silhouette", "estimate"],
+        Literal["auto", "silhouette", "estimate"],
         Field(
             description="Path giving the walking direction: the silhouettes' floor point (the "
             "bottom of each silhouette on the floor, median over cameras; independent of the "
-            "estimated heading) or the estimated body origin"
+            "estimated heading), the estimated body origin, or auto: the estimated origin's "
+            "path, or the floor point's when that is not a walk (a track stuck while the "
+            "person walks)"
         ),
-    ] = "estimate"
+    ] = "auto"
     window_s: Annotated[float, Field(gt=0, le=10)] = 0.4
     min_frames: Annotated[int, Field(ge=2, le=1000)] = 3
     min_span_s: Annotated[
@@ -612,7 +616,7 @@ class HeadingCheckConfig(_Model):
         ),
     ] = 25.0
     turn_source: Annotated[
-        Literal["silhouette", "estimate"],
+        Literal["auto", "silhouette", "estimate"],
         Field(description="Turn following: path giving the walking direction (as source)"),
     ] = "silhouette"
     turn_window_s: Annotated[

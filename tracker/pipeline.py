@@ -1315,10 +1315,18 @@ class Tracker:
         """Walking direction (radians) over the last ``window_s`` seconds, or None.
 
         ``source`` "estimate": the estimated body origin's path; "silhouette": the silhouettes'
-        floor point's. None unless the path has at least ``heading_check.min_frames`` points
-        over ``min_span_s``, a least-squares speed of ``min_speed_m_s`` and a net displacement
-        of at least ``min_straightness`` times its length (a walk, not jitter).
+        floor point's; "auto": the estimate's, else the silhouettes'. None unless the path has
+        at least ``heading_check.min_frames`` points over ``min_span_s``, a least-squares speed
+        of ``min_speed_m_s`` and a net displacement of at least ``min_straightness`` times its
+        length (a walk, not jitter).
         """
+        if source == "auto":
+            # A track stuck facing the wrong way does not move with the person: its own path
+            # is no walk while the silhouettes' is.
+            travel = self._walking_direction(pose, time_s, "estimate", window_s)
+            if travel is None:
+                travel = self._walking_direction(pose, time_s, "silhouette", window_s)
+            return travel
         hc = self.config.heading_check
         path = np.array([*self._path, self._path_entry(time_s, pose)])
         path = path[path[:, 0] >= time_s - window_s - 1e-9]
