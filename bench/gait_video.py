@@ -244,6 +244,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         "--max-frames", type=int, default=None, help="frames per scene (default: the recording)"
     )
     ap.add_argument("--direct", action="store_true", help="track rendered frames (no codec)")
+    ap.add_argument(
+        "--config",
+        type=Path,
+        help="tracker settings file (TOML or YAML, as for gaitwatch track) over the defaults",
+    )
     ap.add_argument("--data", type=Path, default=A.DATA, help="the shared recordings folder")
     ap.add_argument(
         "--keep",
@@ -279,6 +284,15 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as err:
         print(f"gait_video: {err}", file=sys.stderr)
         return 2
+    settings = None
+    if args.config is not None:
+        from tracker.config import TrackerConfigError, load_tracker_config
+
+        try:
+            settings = load_tracker_config(args.config).model_dump(exclude_unset=True)
+        except TrackerConfigError as err:
+            print(f"gait_video: {err}", file=sys.stderr)
+            return 2
     config = GaitConfig()
     results: list[SceneResult] = []
     t_start = time.perf_counter()
@@ -293,7 +307,7 @@ def main(argv: list[str] | None = None) -> int:
         inner = tqdm(total=len(frames), unit="frame", file=sys.stderr, leave=False)
         video, _ = A.track(
             frames, masks, bgs, cams, scene.body.stature_m, fps, args.filter,
-            args.tracker_seed, inner,
+            args.tracker_seed, inner, settings=settings,
         )  # fmt: skip
         inner.close()
         if args.keep:
@@ -321,6 +335,7 @@ def main(argv: list[str] | None = None) -> int:
             "",
             f"Command: `{command.strip()}` ({elapsed / 60:.0f} min; filter {args.filter}, "
             f"scene seed {args.seed}, tracker seed {args.tracker_seed}; "
+            f"{'tracker settings ' + str(args.config) if args.config else 'tracker defaults'}; "
             f"{'rendered frames' if args.direct else 'mp4v videos read back'}).",
             "",
             "Reference: `gait.analysis.analyse` on the true key points at the footage's frame "
