@@ -130,8 +130,9 @@ def compute_strides(
     Returns
     -------
     list of StrideCalc
-        Sorted by start time; strides longer or shorter than plausible, or without a
-        contralateral heel strike inside, are left out.
+        Sorted by start time; strides longer or shorter than plausible, without a
+        contralateral heel strike inside, or holding a whole contralateral stride (a heel
+        strike of this foot missed), are left out.
     """
     s = settings or StrideSettings()
     by: dict[tuple[str, str], list[GaitEvent]] = {}
@@ -160,6 +161,15 @@ def compute_strides(
                 continue
             ci = bisect.bisect_right(c_hs_t, t0)
             if ci >= len(c_hs) or not c_hs_t[ci] < t1:
+                continue
+            if (
+                ci + 1 < len(c_hs)
+                and c_hs_t[ci + 1] < t1
+                and c_hs_t[ci + 1] - c_hs_t[ci] >= s.min_stride_s
+            ):
+                # A whole stride of the other foot inside: this foot's heel strike between its
+                # two strikes was missed, and the span is two strides, not one. (Two strikes
+                # closer than a stride are one true and one spurious: the stride stays.)
                 continue
             c = c_hs[ci]
             st = StrideCalc(side, t0, t1, frame_of(a), frame_of(b))

@@ -49,6 +49,25 @@ def test_events_and_parameters_at_any_frame_rate(fps: float) -> None:
     assert rep.summary.double_support_pct == pytest.approx(20, abs=7)
 
 
+def test_a_missed_heel_strike_does_not_make_a_double_stride() -> None:
+    """A heel strike missing (a foot mislabelled or hidden for a step in tracked footage):
+    the span between its neighbours holds two heel strikes of the other foot and is two
+    strides, so it is left out instead of being reported as one stride twice as long."""
+    traj = synthetic_walk(speed_m_s=1.1, cadence_steps_min=108, n_strides=6, fps=50)
+    left_hs = [e for e in traj.events if e["side"] == "left" and e["type"] == "heel_strike"]
+    missing = left_hs[len(left_hs) // 2]
+    events = [e for e in traj.events if e is not missing]
+    full = analyse(traj, events=traj.events)
+    rep = analyse(traj, events=events)
+    stride_s = 120.0 / 108
+    assert all(s.stride_time_s < 1.2 * stride_s for s in rep.strides)
+    # Gone, and nothing else: the two left strides around the missing strike (one span with
+    # two right strikes inside) and the right stride that had it inside.
+    assert len(rep.strides) == len(full.strides) - 3
+    assert rep.summary.cadence_steps_min == pytest.approx(108, rel=0.02)
+    assert rep.summary.stride_length_m == pytest.approx(1.1 * stride_s, rel=0.02)
+
+
 @pytest.mark.parametrize("heading", [0.0, 75.0, 200.0])
 def test_walking_direction_does_not_matter(heading: float) -> None:
     traj = synthetic_walk(speed_m_s=0.7, cadence_steps_min=95, fps=30, heading_deg=heading)
