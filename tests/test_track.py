@@ -381,11 +381,14 @@ def test_heading_check_turns_a_backward_track(clip: dict) -> None:
 
 def test_walking_direction_auto_falls_back_on_the_silhouettes(clip: dict) -> None:
     """``heading_check.source`` "auto": the estimate's path when it is a walk, else the
-    silhouettes' floor point's (a track stuck while the person walks)."""
+    silhouettes' floor point's (a track stuck while the person walks) once it spans
+    ``auto_min_span_s``."""
     tracker = _tracker_after_first_frame(clip)
-    assert tracker.config.heading_check.source == "auto"
+    hc = tracker.config.heading_check
+    assert hc.source == "auto"
+    assert hc.min_span_s < hc.auto_min_span_s == pytest.approx(0.3)
     pose = tracker.prev_pose.copy()
-    t = np.arange(6) * 0.05
+    t = np.arange(8) * 0.05  # 0.35 s
 
     def walk(estimate_v, floor_v):
         # (time, estimate x, y, floor point x, y); the last entry is the current frame's.
@@ -407,6 +410,11 @@ def test_walking_direction_auto_falls_back_on_the_silhouettes(clip: dict) -> Non
     assert both["auto"] == both["estimate"]
     still = walk((0.0, 0.0), (0.0, 0.0))  # nobody walks
     assert still["auto"] is None
+    t = np.arange(5) * 0.05  # 0.2 s: long enough for the estimate, not for the fallback
+    short = walk((0.0, 0.0), (0.0, 1.0))
+    assert short["silhouette"] == pytest.approx(np.pi / 2)
+    assert short["auto"] is None
+    assert walk((1.0, 0.0), (0.0, 1.0))["auto"] == pytest.approx(0.0)
 
 
 def test_leg_swap_check_unswaps_the_legs(clip: dict) -> None:

@@ -577,6 +577,15 @@ class HeadingCheckConfig(_Model):
         ),
     ] = "auto"
     window_s: Annotated[float, Field(gt=0, le=10)] = 0.4
+    auto_min_span_s: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=10,
+            description="source auto: the silhouettes' path must span at least this long "
+            "(the floor point is noisier than the estimate)",
+        ),
+    ] = 0.3
     min_frames: Annotated[int, Field(ge=2, le=1000)] = 3
     min_span_s: Annotated[
         float, Field(ge=0, le=10, description="The estimates must span at least this long")

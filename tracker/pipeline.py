@@ -1310,7 +1310,12 @@ class Tracker:
         return moved, weight, joints
 
     def _walking_direction(
-        self, pose: np.ndarray, time_s: float, source: str, window_s: float
+        self,
+        pose: np.ndarray,
+        time_s: float,
+        source: str,
+        window_s: float,
+        min_span_s: float | None = None,
     ) -> float | None:
         """Walking direction (radians) over the last ``window_s`` seconds, or None.
 
@@ -1318,23 +1323,27 @@ class Tracker:
         floor point's; "auto": the estimate's, else the silhouettes'. None unless the path has
         at least ``heading_check.min_frames`` points over ``min_span_s``, a least-squares speed
         of ``min_speed_m_s`` and a net displacement of at least ``min_straightness`` times its
-        length (a walk, not jitter).
+        length (a walk, not jitter); ``min_span_s`` overrides the config's span.
         """
+        hc = self.config.heading_check
         if source == "auto":
             # A track stuck facing the wrong way does not move with the person: its own path
-            # is no walk while the silhouettes' is.
+            # is no walk while the silhouettes' is. The floor point is noisier than the
+            # estimate, so its path must be longer.
             travel = self._walking_direction(pose, time_s, "estimate", window_s)
             if travel is None:
-                travel = self._walking_direction(pose, time_s, "silhouette", window_s)
+                travel = self._walking_direction(
+                    pose, time_s, "silhouette", window_s, max(hc.min_span_s, hc.auto_min_span_s)
+                )
             return travel
-        hc = self.config.heading_check
+        span = hc.min_span_s if min_span_s is None else min_span_s
         path = np.array([*self._path, self._path_entry(time_s, pose)])
         path = path[path[:, 0] >= time_s - window_s - 1e-9]
         if source == "silhouette":
             path = path[np.isfinite(path[:, 3])][:, [0, 3, 4]]
         else:
             path = path[:, :3]
-        if path.shape[0] < hc.min_frames or path[-1, 0] - path[0, 0] < hc.min_span_s - 1e-9:
+        if path.shape[0] < hc.min_frames or path[-1, 0] - path[0, 0] < span - 1e-9:
             return None
         # Least-squares velocity over the window: robust to the jitter of single estimates.
         t = path[:, 0] - path[:, 0].mean()
