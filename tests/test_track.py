@@ -417,6 +417,18 @@ def test_walking_direction_auto_falls_back_on_the_silhouettes(clip: dict) -> Non
     assert walk((1.0, 0.0), (0.0, 1.0))["auto"] == pytest.approx(0.0)
 
 
+def test_auto_span_longer_than_its_window_is_refused() -> None:
+    from pydantic import ValidationError
+
+    from tracker.config import HeadingCheckConfig
+
+    with pytest.raises(ValidationError, match="auto_min_span_s"):
+        TrackerConfig(heading_check={"auto_min_span_s": 0.5})  # window_s 0.4
+    with pytest.raises(ValidationError, match="auto_min_span_s"):
+        HeadingCheckConfig(source="estimate", turn_source="auto", turn_window_s=0.2)
+    assert HeadingCheckConfig(source="estimate", auto_min_span_s=0.5).auto_min_span_s == 0.5
+
+
 def test_leg_swap_check_unswaps_the_legs(clip: dict) -> None:
     from tracker.dof import LEFT_LEG, RIGHT_LEG
 

@@ -703,6 +703,21 @@ class HeadingCheckConfig(_Model):
         ),
     ] = 0.02
 
+    @model_validator(mode="after")
+    def _auto_span_fits(self) -> HeadingCheckConfig:
+        if "auto" in (self.source, self.turn_source):
+            window = min(
+                w
+                for src, w in ((self.source, self.window_s), (self.turn_source, self.turn_window_s))
+                if src == "auto"
+            )
+            if self.auto_min_span_s > window:
+                raise ValueError(
+                    f"auto_min_span_s ({self.auto_min_span_s} s) must not exceed the window of a "
+                    f"source set to auto ({window} s): the silhouettes' path could never decide"
+                )
+        return self
+
 
 class LegSwapConfig(_Model):
     """Left/right leg-swap check (the legs look alike, and a local search cannot cross them).
