@@ -520,6 +520,17 @@ def _merged(base: dict, over: dict) -> dict:
     return out
 
 
+def tracker_settings(path: Path | None) -> dict | None:
+    """The fields a tracker settings file (TOML or YAML, as for ``gaitwatch track``) sets, to go
+    over each variant's defaults; None without a file. Raises
+    ``tracker.config.TrackerConfigError`` on a bad file."""
+    if path is None:
+        return None
+    from tracker.config import load_tracker_config
+
+    return load_tracker_config(path).model_dump(exclude_unset=True)
+
+
 def variant_config(filt: str, settings: dict | None = None):
     """The TrackerConfig of filter variant ``filt`` over ``settings`` (a settings file's
     fields; None: the defaults)."""
@@ -1146,15 +1157,13 @@ def main(argv: list[str] | None = None) -> int:
     bad = [f for f in filters if f not in FILTER_VARIANTS]
     if bad:
         raise SystemExit(f"unknown filter(s): {', '.join(bad)}")
-    settings = None
-    if args.config is not None:
-        from tracker.config import TrackerConfigError, load_tracker_config
+    from tracker.config import TrackerConfigError
 
-        try:
-            settings = load_tracker_config(args.config).model_dump(exclude_unset=True)
-        except TrackerConfigError as err:
-            print(f"accuracy: {err}", file=sys.stderr)
-            return 2
+    try:
+        settings = tracker_settings(args.config)
+    except TrackerConfigError as err:
+        print(f"accuracy: {err}", file=sys.stderr)
+        return 2
     plan = make_plan(args)
     t_start = time.perf_counter()
     runs: list[Run] = []

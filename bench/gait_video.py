@@ -99,14 +99,11 @@ class SceneResult:
     pct: dict[str, float] = field(default_factory=dict)
     diff: dict[str, float] = field(default_factory=dict)
     error: str = ""
+    ncams: int = 1
 
     @property
     def gait(self) -> str:
         return "crouch" if self.recording in A.PATHOLOGICAL else "walk"
-
-    @property
-    def ncams(self) -> int:
-        return len(self.view.split("@")[0].split(":")[0].split("+"))
 
 
 def _value(x) -> float:
@@ -284,15 +281,13 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as err:
         print(f"gait_video: {err}", file=sys.stderr)
         return 2
-    settings = None
-    if args.config is not None:
-        from tracker.config import TrackerConfigError, load_tracker_config
+    from tracker.config import TrackerConfigError
 
-        try:
-            settings = load_tracker_config(args.config).model_dump(exclude_unset=True)
-        except TrackerConfigError as err:
-            print(f"gait_video: {err}", file=sys.stderr)
-            return 2
+    try:
+        settings = A.tracker_settings(args.config)
+    except TrackerConfigError as err:
+        print(f"gait_video: {err}", file=sys.stderr)
+        return 2
     config = GaitConfig()
     results: list[SceneResult] = []
     t_start = time.perf_counter()
@@ -316,7 +311,7 @@ def main(argv: list[str] | None = None) -> int:
             write_joints_csv(truth, args.keep / f"{stem}_truth.csv")
             write_joints_csv(video, args.keep / f"{stem}_video.csv")
         res = compare(truth, video, config)
-        res.recording, res.view = rec, view.label
+        res.recording, res.view, res.ncams = rec, view.label, len(view.views)
         results.append(res)
         tqdm.write(
             f"{rec:9s} {view.label:14s} all {_f(res.all_mm, 0, False):>4s} mm  strides "
