@@ -1038,6 +1038,16 @@ class SmoothingConfig(_Model):
         ),
     ] = 0.45
     order: Annotated[int, Field(ge=0, le=4, description="Polynomial order")] = 2
+    feet_order: Annotated[
+        int | None,
+        Field(
+            ge=0,
+            le=4,
+            description="Polynomial order for the ankles, heels and toes (None: ``order``). "
+            "Their stop-and-go between stance and swing marks the gait events, which a "
+            "quadratic over the window rounds off (heel strike late, double support short)",
+        ),
+    ] = 4
     max_gap_s: Annotated[
         float, Field(gt=0, le=10, description="A longer step between two frames ends a segment")
     ] = 0.5

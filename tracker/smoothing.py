@@ -28,7 +28,11 @@ from typing import Any
 
 import numpy as np
 
+from gaitwatch.conventions import KEYPOINTS, side_index
 from tracker.config import SmoothingConfig
+
+#: The key points fitted with ``feet_order``: both ankles, heels and toes.
+FEET = [side_index(s, p) for s in ("left", "right") for p in ("ankle", "heel", "toe")]
 
 #: Statuses that start a new segment (the pose jumps).
 RESTART_STATUSES = frozenset({"initialised", "reinitialised"})
@@ -82,16 +86,23 @@ class KeypointSmoother:
         Polynomial order (0-4).
     max_gap_s : float
         A larger time step between two frames ends the segment.
+    feet_order : int, optional
+        Polynomial order (0-4) for the ankles, heels and toes of 19-point frames (:data:`FEET`);
+        None: ``order``.
     """
 
-    def __init__(self, window: int, order: int = 2, max_gap_s: float = 0.5) -> None:
+    def __init__(
+        self, window: int, order: int = 2, max_gap_s: float = 0.5, feet_order: int | None = None
+    ) -> None:
         if window < 1 or window % 2 == 0:
             raise ValueError(f"window must be an odd number of frames >= 1, not {window}")
-        if not 0 <= order <= 4:
-            raise ValueError(f"order must be 0 to 4, not {order}")
+        for name, value in (("order", order), ("feet_order", feet_order)):
+            if value is not None and not 0 <= value <= 4:
+                raise ValueError(f"{name} must be 0 to 4, not {value}")
         self.window = int(window)
         self.half = self.window // 2
         self.order = int(order)
+        self.feet_order = self.order if feet_order is None else int(feet_order)
         self.max_gap_s = float(max_gap_s)
         #: Frames not yet returned (oldest first); the segment's earlier frames kept for fits.
         self._pending: deque[SmoothedFrame] = deque()
@@ -101,7 +112,7 @@ class KeypointSmoother:
     def from_config(cls, config: SmoothingConfig, fps: float) -> KeypointSmoother:
         """The smoother of ``config`` at frame rate ``fps`` (window 1 when disabled)."""
         window = window_frames(config.window_s, fps) if config.enabled else 1
-        return cls(window, config.order, config.max_gap_s)
+        return cls(window, config.order, config.max_gap_s, config.feet_order)
 
     # -- stream -----------------------------------------------------------------------------
     def push(
@@ -158,6 +169,8 @@ class KeypointSmoother:
                 t = np.array([f.time_s for f in seg])
                 v = np.stack([f.raw for f in seg])
                 frame.joints = local_fit(t, v, frame.time_s, self.order)
+                if self.feet_order != self.order and v.shape[1] == len(KEYPOINTS):
+                    frame.joints[FEET] = local_fit(t, v[:, FEET], frame.time_s, self.feet_order)
         self._pending.popleft()
         if frame.joints is None:
             self._history.clear()
