@@ -190,3 +190,19 @@ def test_feet_order_keeps_a_heel_strike() -> None:
     err_quad = np.abs(quad[around] - x[around]).max()
     err_quart = np.abs(quart[around] - x[around]).max()
     assert err_quart < 0.6 * err_quad, (err_quad, err_quart)
+
+
+def test_stream_equals_the_local_fit_of_each_frame() -> None:
+    """The stream's cached fit weights give each frame the fit of its own window, the
+    segment's ends (shorter windows) included, for the feet's order as for the rest."""
+    rng = np.random.default_rng(5)
+    T = 25
+    times = np.arange(T) / FPS
+    joints = rng.normal(size=(T, 19, 3))
+    out, _ = _stream(KeypointSmoother(9, 2, feet_order=4), times, joints)
+    got = np.stack([j for _, j in out])
+    for k in range(T):
+        lo, hi = max(0, k - 4), min(T, k + 5)
+        ref = local_fit(times[lo:hi], joints[lo:hi], times[k], 2)
+        ref[FEET] = local_fit(times[lo:hi], joints[lo:hi][:, FEET], times[k], 4)
+        np.testing.assert_allclose(got[k], ref, atol=1e-12)

@@ -75,6 +75,18 @@ def local_fit(times: np.ndarray, values: np.ndarray, at: float, order: int) -> n
     return coef[0].reshape(values.shape[1:])
 
 
+def fit_weights(times: np.ndarray, at: float, order: int) -> np.ndarray:
+    """(n,) weights ``w`` with ``w @ values`` = :func:`local_fit` ``(times, values, at, order)``
+    (the first row of the fit's pseudo-inverse: the fit is linear in the values)."""
+    n = len(times)
+    deg = min(order, n - 1)
+    if deg <= 0:
+        return np.full(n, 1.0 / n)
+    t = np.asarray(times, dtype=np.float64) - at
+    scale = float(np.abs(t).max()) or 1.0
+    return np.linalg.pinv(np.vander(t / scale, deg + 1, increasing=True))[0]
+
+
 class KeypointSmoother:
     """Centred local polynomial smoothing of key points over a stream of frames.
 
@@ -107,6 +119,7 @@ class KeypointSmoother:
         #: Frames not yet returned (oldest first); the segment's earlier frames kept for fits.
         self._pending: deque[SmoothedFrame] = deque()
         self._history: deque[SmoothedFrame] = deque(maxlen=self.half)
+        self._weights: dict[tuple, np.ndarray] = {}
 
     @classmethod
     def from_config(cls, config: SmoothingConfig, fps: float) -> KeypointSmoother:
@@ -168,15 +181,26 @@ class KeypointSmoother:
             if len(seg) > 1:
                 t = np.array([f.time_s for f in seg])
                 v = np.stack([f.raw for f in seg])
-                frame.joints = local_fit(t, v, frame.time_s, self.order)
+                frame.joints = self._fit(t, v, frame.time_s, self.order)
                 if self.feet_order != self.order and v.shape[1] == len(KEYPOINTS):
-                    frame.joints[FEET] = local_fit(t, v[:, FEET], frame.time_s, self.feet_order)
+                    frame.joints[FEET] = self._fit(t, v[:, FEET], frame.time_s, self.feet_order)
         self._pending.popleft()
         if frame.joints is None:
             self._history.clear()
         else:
             self._history.append(frame)
         return frame
+
+    def _fit(self, t: np.ndarray, v: np.ndarray, at: float, order: int) -> np.ndarray:
+        """:func:`local_fit` with the weights cached per (order, frame times relative to
+        ``at``, microseconds): inside a track at a steady frame rate they repeat."""
+        key = (order, tuple(np.round((t - at) * 1e6).astype(np.int64).tolist()))
+        w = self._weights.get(key)
+        if w is None:
+            if len(self._weights) >= 256:
+                self._weights.clear()
+            w = self._weights[key] = fit_weights(t, at, order)
+        return np.tensordot(w, v, axes=1)
 
     def _drain(self) -> list[SmoothedFrame]:
         out = []
