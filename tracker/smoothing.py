@@ -4,7 +4,9 @@ Each frame's estimate carries the filter's own noise: the particle chosen at one
 next differ by more than the body moved. A centred local polynomial fit over a short window
 (Savitzky-Golay, in time) removes most of it and keeps the motion of walking: with a window
 of 0.45 s and a quadratic the benchmark's key-point error fell 5.5 % and the knee flexion RMSE
-2.7 deg (docs/tracker.md, "Output smoothing").
+2.7 deg (docs/tracker.md, "Output smoothing"). The ankles, heels and toes are fitted with a
+quartic (``feet_order``): a foot stops at heel strike and starts at toe off, the instants the
+gait events are read from, and a quadratic over the window rounds those off.
 
 :class:`KeypointSmoother` works as a stream: :meth:`~KeypointSmoother.push` takes one frame at a
 time and returns the frames that are final, each ``half`` frames later (the window's half

@@ -15,16 +15,16 @@ same order. Frames are processed one at a time (memory does not grow with the fo
 written to the pose log as soon as it is final: a pose, or a "no pose" status with its reason.
 Each frame's leg labels are chosen by smooth motion of the feet half a second later
 (:mod:`tracker.leglabels`; ``[leg_labels]`` in ``--config``), then the key points of each
-continuous track are smoothed over 0.45 s (:mod:`tracker.smoothing`, a centred quadratic fit;
-``--no-smoothing`` or ``[smoothing]`` in ``--config`` to change), so a frame is written about
-three quarters of a second of footage after it was read. The first frames of
-each track, from the initial search until the track has settled 0.9 s after its last
-re-initialisation, are tracked again backwards from the settled state (:class:`tracker.config.
-ReviseConfig`; ``--no-revise`` or ``[revise]`` in ``--config``) and written as revised: those
-frames are written up to 4 s of footage after they were read, in frame order; memory stays
-bounded. The pose vector and weight are each frame's own (final) estimate's. The log is
-finalised even when tracking stops on an error (a corrupt frame, videos of different lengths), so
-the poses written so far stay readable; the error is then reported on one line and the exit code
+continuous track are smoothed over 0.45 s (:mod:`tracker.smoothing`, a centred quadratic fit,
+quartic for the ankles, heels and toes; ``--no-smoothing`` or ``[smoothing]`` in ``--config`` to
+change), so a frame is written about three quarters of a second of footage after it was read. The
+first frames of each track, from the initial search until the track has settled 0.9 s after its
+last re-initialisation, are tracked again backwards from the settled state
+(:class:`tracker.config.ReviseConfig`; ``--no-revise`` or ``[revise]`` in ``--config``) and written
+as revised: those frames are written up to 4 s of footage after they were read, in frame order;
+memory stays bounded. The pose vector and weight are each frame's own (final) estimate's. The log
+is finalised even when tracking stops on an error (a corrupt frame, videos of different lengths),
+so the poses written so far stay readable; the error is then reported on one line and the exit code
 is non-zero. Every random draw comes from one generator seeded by ``--seed``: the same seed gives
 the same poses.
 
