@@ -149,15 +149,20 @@ def test_bad_feet_order() -> None:
         SmoothingConfig(feet_order=-1)
 
 
-def test_feet_have_their_own_order() -> None:
-    """Ankles, heels and toes are fitted with ``feet_order``, every other key point with
-    ``order``; ``feet_order`` None is ``order``."""
-    rng = np.random.default_rng(3)
-    T = 30
+def _random_feet_quartic(seed: int, T: int):
+    """Random key points through a 9-frame smoother with a quartic for the feet: (times,
+    joints, smoothed)."""
+    rng = np.random.default_rng(seed)
     times = np.arange(T) / FPS
     joints = rng.normal(size=(T, 19, 3))
     out, _ = _stream(KeypointSmoother(9, 2, feet_order=4), times, joints)
-    got = np.stack([j for _, j in out])
+    return times, joints, np.stack([j for _, j in out])
+
+
+def test_feet_have_their_own_order() -> None:
+    """Ankles, heels and toes are fitted with ``feet_order``, every other key point with
+    ``order``; ``feet_order`` None is ``order``."""
+    times, joints, got = _random_feet_quartic(seed=3, T=30)
     rest = [k for k in range(19) if k not in FEET]
     assert len(FEET) == 6 and {KEYPOINTS[k].split("_")[1] for k in FEET} == {"ankle", "heel", "toe"}
     np.testing.assert_allclose(
@@ -195,12 +200,8 @@ def test_feet_order_keeps_a_heel_strike() -> None:
 def test_stream_equals_the_local_fit_of_each_frame() -> None:
     """The stream's cached fit weights give each frame the fit of its own window, the
     segment's ends (shorter windows) included, for the feet's order as for the rest."""
-    rng = np.random.default_rng(5)
     T = 25
-    times = np.arange(T) / FPS
-    joints = rng.normal(size=(T, 19, 3))
-    out, _ = _stream(KeypointSmoother(9, 2, feet_order=4), times, joints)
-    got = np.stack([j for _, j in out])
+    times, joints, got = _random_feet_quartic(seed=5, T=T)
     for k in range(T):
         lo, hi = max(0, k - 4), min(T, k + 5)
         ref = local_fit(times[lo:hi], joints[lo:hi], times[k], 2)
