@@ -531,6 +531,31 @@ def tracker_settings(path: Path | None) -> dict | None:
     return load_tracker_config(path).model_dump(exclude_unset=True)
 
 
+def add_run_args(ap: argparse.ArgumentParser, out: Path, config_help: str) -> None:
+    """The arguments every footage benchmark takes: ``--data``, ``--config`` (a tracker
+    settings file, ``config_help`` says how it applies), ``--out`` (default ``out``) and
+    ``--no-out``."""
+    ap.add_argument("--data", type=Path, default=DATA, help="the shared recordings folder")
+    ap.add_argument(
+        "--config",
+        type=Path,
+        help="tracker settings file (TOML or YAML, as for gaitwatch track) " + config_help,
+    )
+    ap.add_argument("--out", type=Path, default=out)
+    ap.add_argument("--no-out", action="store_true", help="print only, write no file")
+
+
+def ready(args: argparse.Namespace, prog: str) -> bool:
+    """Logging and warnings of a footage benchmark's run (this one, gait_video, search_ceiling,
+    one_step); False (after saying why) when ``args.data`` holds no shared recordings."""
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    warnings.filterwarnings("ignore", category=RuntimeWarning)
+    if not args.data.is_dir():
+        print(f"{prog}: no shared recordings at {args.data}", file=sys.stderr)
+        return False
+    return True
+
+
 def variant_config(filt: str, settings: dict | None = None):
     """The TrackerConfig of filter variant ``filt`` over ``settings`` (a settings file's
     fields; None: the defaults)."""
@@ -1101,7 +1126,6 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help="give the tracker the furniture's masks (gaitwatch track --occluder), as an "
         "installer would mark them",
     )
-    ap.add_argument("--data", type=Path, default=DATA, help="the shared recordings folder")
     ap.add_argument("--overlays", type=Path, help="write worst-frame overlays (PNG) here")
     ap.add_argument(
         "--fit-step",
@@ -1109,14 +1133,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         default=3,
         help="fit the tracker's model to the truth on every N-th frame (diagnostics)",
     )
-    ap.add_argument(
-        "--config",
-        type=Path,
-        help="tracker settings file (TOML or YAML, as for gaitwatch track) under every filter "
-        "variant (the variant's own fields win)",
+    add_run_args(
+        ap,
+        REPO / "bench" / "RESULTS.md",
+        "under every filter variant (the variant's own fields win)",
     )
-    ap.add_argument("--out", type=Path, default=REPO / "bench" / "RESULTS.md")
-    ap.add_argument("--no-out", action="store_true", help="print only, write no file")
     args = ap.parse_args(argv)
     if args.max_frames is None:
         args.max_frames = 12 if args.quick else 40
@@ -1148,10 +1169,7 @@ def make_plan(args) -> list[tuple[str, ViewSpec]]:
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     args = parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    warnings.filterwarnings("ignore", category=RuntimeWarning)
-    if not args.data.is_dir():
-        print(f"accuracy: no shared recordings at {args.data}", file=sys.stderr)
+    if not ready(args, "accuracy"):
         return 2
     filters = [f.strip() for f in args.filters.split(",") if f.strip()]
     bad = [f for f in filters if f not in FILTER_VARIANTS]

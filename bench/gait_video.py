@@ -31,14 +31,12 @@ Run::
 from __future__ import annotations
 
 import argparse
-import logging
 import math
 import shlex
 import statistics
 import sys
 import tempfile
 import time
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -242,19 +240,12 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     ap.add_argument("--direct", action="store_true", help="track rendered frames (no codec)")
     ap.add_argument(
-        "--config",
-        type=Path,
-        help="tracker settings file (TOML or YAML, as for gaitwatch track) over the defaults",
-    )
-    ap.add_argument("--data", type=Path, default=A.DATA, help="the shared recordings folder")
-    ap.add_argument(
         "--keep",
         type=Path,
         help="write each scene's true and tracked key points here (REC_VIEW_truth.csv, "
         "REC_VIEW_video.csv; CONVENTIONS JOINTS.csv format, for `gaitwatch gait`)",
     )
-    ap.add_argument("--out", type=Path, default=REPO / "bench" / "GAIT_VIDEO.md")
-    ap.add_argument("--no-out", action="store_true", help="print only, write no file")
+    A.add_run_args(ap, REPO / "bench" / "GAIT_VIDEO.md", "over the defaults")
     args = ap.parse_args(argv)
     if args.tracker_seed is None:
         args.tracker_seed = args.seed
@@ -266,10 +257,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     args = parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    warnings.filterwarnings("ignore", category=RuntimeWarning)
-    if not args.data.is_dir():
-        print(f"gait_video: no shared recordings at {args.data}", file=sys.stderr)
+    if not A.ready(args, "gait_video"):
         return 2
     recs = [r.strip() for r in args.recordings.split(",") if r.strip()]
     unknown = [r for r in recs if r not in A.RECORDINGS]

@@ -39,7 +39,6 @@ from search_ceiling import (  # noqa: E402
     EXACT_BODY,
     add_scene_arguments,
     ideal_scene,
-    ready,
     scene_plan,
 )
 
@@ -98,7 +97,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(sys.argv[1:] if argv is None else argv)
-    if not ready(args, "one_step"):
+    if not A.ready(args, "one_step"):
         return 2
     try:
         settings = json.loads(args.settings)

@@ -31,9 +31,7 @@ Run::
 from __future__ import annotations
 
 import argparse
-import logging
 import sys
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -94,17 +92,6 @@ def scene_plan(args: argparse.Namespace) -> tuple[list[str], list[A.ViewSpec], l
     return recs, views, [int(s) for s in args.seeds.split(",")]
 
 
-def ready(args: argparse.Namespace, prog: str) -> bool:
-    """Logging and warnings as the accuracy benchmark sets them; False (after saying why) when
-    the shared recordings are missing."""
-    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    warnings.filterwarnings("ignore", category=RuntimeWarning)
-    if not args.data.is_dir():
-        print(f"{prog}: no shared recordings at {args.data}", file=sys.stderr)
-        return False
-    return True
-
-
 def parse_args(argv: list[str]) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_scene_arguments(ap)
@@ -115,7 +102,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(sys.argv[1:] if argv is None else argv)
-    if not ready(args, "search_ceiling"):
+    if not A.ready(args, "search_ceiling"):
         return 2
     from tqdm import tqdm
 
