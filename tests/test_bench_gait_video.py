@@ -67,3 +67,54 @@ def test_empty_video_is_reported_not_raised(gait_video, walk):
     assert r.error == "no pose"
     table = gait_video.pooled_table([r])
     assert "1 (0)" in table  # one scene, none with matched strides
+
+
+@pytest.fixture(scope="module")
+def gait_repeat(gait_video):
+    spec = importlib.util.spec_from_file_location(
+        "bench_gait_repeat", REPO / "bench" / "gait_repeat.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["bench_gait_repeat"] = module
+    spec.loader.exec_module(module)
+    yield module
+    sys.modules.pop("bench_gait_repeat", None)
+
+
+def test_repeat_spread_known_values(gait_repeat):
+    """Bias over every run; within: pooled sd of the footage run twice or more; between: sd of
+    their means. A footage run once and NaN runs count in the bias only."""
+    s = gait_repeat.spread(
+        {"a": [1.0, 3.0], "b": [5.0, 7.0, float("nan")], "c": [10.0], "d": [float("nan")]}
+    )
+    assert s.runs == 5
+    assert s.bias == pytest.approx((1 + 3 + 5 + 7 + 10) / 5)
+    assert s.footage == 2
+    assert s.sd_within == pytest.approx(np.sqrt((2 + 2) / 2))  # each footage: var 2, 1 dof
+    assert s.sd_between == pytest.approx(np.std([2.0, 6.0], ddof=1))
+    lone = gait_repeat.spread({"a": [1.0]})
+    assert lone.runs == 1 and np.isnan(lone.sd_within) and np.isnan(lone.sd_between)
+
+
+def test_repeat_reads_kept_folders(gait_repeat, walk, tmp_path):
+    """Two folders of the same footage: a run equal to the truth and one 10 % faster give a
+    speed bias of +5 % and a within-footage sd of about 7 %."""
+    import dataclasses
+
+    from gaitwatch.trajectory import write_joints_csv
+
+    fast = dataclasses.replace(walk, times=walk.times / 1.1)
+    for i, video in enumerate((walk, fast)):
+        d = tmp_path / f"gv{i}"
+        d.mkdir()
+        write_joints_csv(walk, d / "07_04_side-frontal_truth.csv")
+        write_joints_csv(video, d / "07_04_side-frontal_video.csv")
+    assert gait_repeat.main([str(tmp_path / "gv0"), str(tmp_path / "x")]) == 2
+    results = gait_repeat.load([tmp_path / "gv0", tmp_path / "gv1"], GaitConfig())
+    (rs,) = results.values()
+    assert [r.recording for r in rs] == ["07_04", "07_04"] and rs[0].ncams == 2
+    rows = gait_repeat.table(results)
+    speed = next(r for r in rows if "| speed" in r).split("|")
+    assert speed[1].strip() == "walk" and speed[2].strip() == "2"
+    assert float(speed[6]) == pytest.approx(5.0, abs=0.5)
+    assert float(speed[7]) == pytest.approx(7.07, abs=0.7)
