@@ -60,11 +60,17 @@ only; other placements measure how the tracker generalises to other rooms::
 
     python3 bench/accuracy.py --views oblique:h1.2,side+frontal:h1.2 --filters ipf \\
         --out /tmp/RESULTS-low.md
+
+``--json FILE`` also writes every run's scores with the seeds and commit. A change is judged on
+runs paired with the same scene, seeds and filter over several draws (one draw's scenes move
+by tens of millimetres with the tracker's random draws): ``bench/paired.py --base A*.json --new
+B*.json`` prints the paired differences (its docstring has the commands).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import math
 import os
@@ -972,7 +978,9 @@ def targets(runs: list[Run]) -> tuple[str, list[tuple[str, bool | None]]]:
     return "\n".join(lines), checks
 
 
-def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float, args) -> str:
+def _commit() -> str:
+    """The checkout's short commit, and whether the tracker's or analysis's code differs from
+    it ("?" without git)."""
     try:
         commit = subprocess.run(
             ["git", "-C", str(REPO), "rev-parse", "--short", "HEAD"],
@@ -990,6 +998,49 @@ def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float
             commit += f" plus uncommitted changes in {len(dirty.splitlines())} file(s)"
     except OSError:
         commit = "?"
+    return commit
+
+
+def run_record(run: Run) -> dict:
+    """One run's scores as ``--json`` writes them (``bench/paired.py`` reads them); a score
+    that is not a number (no angles scored) is None."""
+    m = run.metrics
+
+    def num(x: float) -> float | None:
+        return float(x) if math.isfinite(x) else None
+
+    return {
+        "recording": run.recording,
+        "view": run.view.label,
+        "cameras": run.ncams,
+        "filter": run.filter,
+        "all_mm": num(m.mpjpe_mm),
+        "lower_mm": num(m.lower_limb_mm),
+        "hip_rmse_deg": num(m.hip_flexion_rmse_deg),
+        "knee_rmse_deg": num(m.knee_flexion_rmse_deg),
+        "swap_rate": num(m.swap_rate),
+        "frames_lost": int(m.frames_lost),
+        "ms_per_frame": num(m.ms_per_frame),
+    }
+
+
+def write_json(path: Path, runs: list[Run], argv: list[str], args) -> None:
+    """Every run's scores with the command, seeds and commit, for paired comparisons."""
+    doc = {
+        "command": "python3 bench/accuracy.py" + ("" if not argv else " " + shlex.join(argv)),
+        "commit": _commit(),
+        "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        "seed": args.seed,
+        "tracker_seed": args.tracker_seed,
+        "config": str(args.config) if args.config else None,
+        "runs": [run_record(r) for r in runs],
+    }
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n", encoding="utf-8")
+
+
+def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float, args) -> str:
+    commit = _commit()
     tgt, _ = targets(runs)
     load = os.getloadavg() if hasattr(os, "getloadavg") else (math.nan,) * 3
     cmd = "python3 bench/accuracy.py" + ("" if not argv else " " + shlex.join(argv))
@@ -997,7 +1048,8 @@ def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float
 
     tcfg = load_tracker_config(args.config) if args.config else TrackerConfig()
     sm, rv = tcfg.smoothing, tcfg.revise
-    smoothing_text = f"{sm.window_s} s window, order {sm.order}" if sm.enabled else "off"
+    feet = f", the feet's order {sm.feet_order}" if sm.feet_order not in (None, sm.order) else ""
+    smoothing_text = f"{sm.window_s} s window, order {sm.order}{feet}" if sm.enabled else "off"
     lg = tcfg.leg_labels
     legs_text = f"decided {lg.lag_s} s later" if lg.enabled else "off"
     revise_text = f"settled after {rv.settle_s} s" if rv.enabled else "off"
@@ -1127,6 +1179,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         "installer would mark them",
     )
     ap.add_argument("--overlays", type=Path, help="write worst-frame overlays (PNG) here")
+    ap.add_argument(
+        "--json",
+        type=Path,
+        help="also write every run's scores here (JSON), for bench/paired.py",
+    )
     ap.add_argument(
         "--fit-step",
         type=int,
@@ -1283,6 +1340,9 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_out:
         write_results(args.out, runs, argv, elapsed, args)
         print(f"wrote {args.out}", file=sys.stderr)
+    if args.json:
+        write_json(args.json, runs, argv, args)
+        print(f"wrote {args.json}", file=sys.stderr)
     return 0
 
 

@@ -1,0 +1,140 @@
+"""bench/paired.py and bench/accuracy.py --json: known scores in, known paired figures out."""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _load(name: str, module_name: str):
+    spec = importlib.util.spec_from_file_location(module_name, REPO / "bench" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[module_name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def paired():
+    yield _load("paired", "bench_paired")
+    sys.modules.pop("bench_paired", None)
+
+
+@pytest.fixture(scope="module")
+def accuracy():
+    yield _load("accuracy", "bench_accuracy_json")
+    sys.modules.pop("bench_accuracy_json", None)
+
+
+def _doc(seed: int, runs: list[tuple[str, str, int, str, float, float, float | None]]) -> dict:
+    return {
+        "seed": seed,
+        "tracker_seed": seed + 900,
+        "runs": [
+            {
+                "recording": rec,
+                "view": view,
+                "cameras": cams,
+                "filter": filt,
+                "all_mm": a,
+                "lower_mm": lo,
+                "knee_rmse_deg": knee,
+            }
+            for rec, view, cams, filt, a, lo, knee in runs
+        ],
+    }
+
+
+def _write(tmp: Path, name: str, doc: dict) -> Path:
+    p = tmp / name
+    p.write_text(json.dumps(doc), encoding="utf-8")
+    return p
+
+
+def test_paired_differences(paired, tmp_path):
+    """Two draws of two scenes: the new setting is 10 mm better on one scene and 20 mm worse
+    on the other; a run without a partner and a knee score of None are left out."""
+    base = [
+        _write(tmp_path, "b0.json", _doc(0, [("a", "oblique", 1, "ipf", 100, 90, 10.0),
+                                             ("b", "side+frontal", 2, "ipf", 60, 50, 8.0)])),
+        _write(tmp_path, "b1.json", _doc(1, [("a", "oblique", 1, "ipf", 120, 110, None),
+                                             ("b", "side+frontal", 2, "ipf", 70, 60, 9.0),
+                                             ("c", "oblique", 1, "ipf", 300, 300, 30.0)])),
+    ]  # fmt: skip
+    new = [
+        _write(tmp_path, "n0.json", _doc(0, [("a", "oblique", 1, "ipf", 90, 80, 9.0),
+                                             ("b", "side+frontal", 2, "ipf", 80, 70, 8.0)])),
+        _write(tmp_path, "n1.json", _doc(1, [("a", "oblique", 1, "ipf", 110, 100, 12.0),
+                                             ("b", "side+frontal", 2, "ipf", 90, 80, 9.5)])),
+    ]  # fmt: skip
+    b, n = paired.load(base), paired.load(new)
+    assert len(b) == 5 and len(n) == 4
+    v = paired.paired(b, n, "all_mm")
+    assert v.shape == (4, 2)
+    d = v[:, 1] - v[:, 0]
+    assert sorted(d) == [-10, -10, 20, 20]
+    assert paired.paired(b, n, "knee_rmse_deg").shape == (3, 2)  # the None is left out
+    text = "\n".join(paired.tables(b, n))
+    # the oblique runs: 110 -> 100 mm, -10 +- 0, both better
+    assert "| ipf, oblique | 2 | 110.0 | 100.0 | -10.0 +- 0.0 | 2 |" in text
+    # all four runs: +5 +- se of [-10, -10, 20, 20]
+    se = np.std([-10, -10, 20, 20], ddof=1) / 2
+    assert f"| ipf, all runs | 4 | 87.5 | 92.5 | +5.0 +- {se:.1f} | 2 |" in text
+
+
+def test_paired_command_line_errors(paired, tmp_path, capsys):
+    good = _write(tmp_path, "g.json", _doc(0, [("a", "oblique", 1, "ipf", 1, 1, 1.0)]))
+    other = _write(tmp_path, "o.json", _doc(5, [("a", "oblique", 1, "ipf", 1, 1, 1.0)]))
+    bad = tmp_path / "bad.json"
+    bad.write_text("{}", encoding="utf-8")
+    assert paired.main(["--base", str(bad), "--new", str(good)]) == 2
+    assert "not a bench/accuracy.py --json file" in capsys.readouterr().err
+    assert paired.main(["--base", str(good), str(good), "--new", str(good)]) == 2
+    assert "already in another file" in capsys.readouterr().err
+    assert paired.main(["--base", str(good), "--new", str(other)]) == 2
+    assert "no run of --base has a partner" in capsys.readouterr().err
+    assert paired.main(["--base", str(good), "--new", str(good)]) == 0
+    assert "1 paired runs" in capsys.readouterr().out
+
+
+def test_accuracy_json_round_trip(accuracy, paired, tmp_path):
+    """--json writes strict JSON that paired.py reads: the scores as evaluated, NaN as None."""
+    from gaitwatch.evaluation import evaluate
+    from gaitwatch.trajectory import Trajectory
+
+    rng = np.random.default_rng(0)
+    pos = rng.normal(size=(5, 19, 3))
+    truth = Trajectory(times=np.arange(5) * 0.05, positions=pos, frames=np.arange(5))
+    est = Trajectory(times=truth.times, positions=pos + 0.01, frames=truth.frames)
+    m = evaluate(truth, est)
+    run = accuracy.Run(
+        recording="07_06",
+        view=accuracy.ViewSpec.parse("side+frontal"),
+        body="heavy/fitted",
+        filter="ipf",
+        metrics=m,
+        filter_evaluations=6561,
+        evals_tracked=7000.0,
+        evals_init=0.0,
+        reinits=0,
+    )
+    args = argparse.Namespace(seed=2, tracker_seed=902, config=None)
+    out = tmp_path / "sub" / "r.json"
+    accuracy.write_json(out, [run], ["--seed", "2"], args)
+    doc = json.loads(out.read_text(encoding="utf-8"))  # strict: no NaN tokens
+    assert doc["command"] == "python3 bench/accuracy.py --seed 2"
+    (rec,) = doc["runs"]
+    assert rec["cameras"] == 2 and rec["view"] == "side+frontal"
+    assert rec["all_mm"] == pytest.approx(m.mpjpe_mm) == pytest.approx(10 * math.sqrt(3))
+    knee = m.knee_flexion_rmse_deg
+    assert rec["knee_rmse_deg"] == (None if math.isnan(knee) else pytest.approx(knee))
+    assert list(paired.load([out])) == [(2, 902, "07_06", "side+frontal", "ipf")]
