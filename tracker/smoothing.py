@@ -66,26 +66,22 @@ def local_fit(times: np.ndarray, values: np.ndarray, at: float, order: int) -> n
     ``times`` (n,), ``values`` (n, ...) -> (...). Times are centred on ``at`` for conditioning.
     """
     n = len(times)
-    flat = values.reshape(n, -1)
-    deg = min(order, n - 1)
-    if deg <= 0:
-        return flat.mean(axis=0).reshape(values.shape[1:])
-    t = np.asarray(times, dtype=np.float64) - at
-    scale = float(np.abs(t).max()) or 1.0
-    V = np.vander(t / scale, deg + 1, increasing=True)  # column 0 is the value at ``at``
-    coef, *_ = np.linalg.lstsq(V, flat, rcond=None)
-    return coef[0].reshape(values.shape[1:])
+    return np.tensordot(fit_weights(times, at, order), values.reshape(n, -1), axes=1).reshape(
+        values.shape[1:]
+    )
 
 
 def fit_weights(times: np.ndarray, at: float, order: int) -> np.ndarray:
-    """(n,) weights ``w`` with ``w @ values`` = :func:`local_fit` ``(times, values, at, order)``
-    (the first row of the fit's pseudo-inverse: the fit is linear in the values)."""
+    """(n,) weights ``w`` with ``w @ values`` = :func:`local_fit` ``(times, values, at, order)``:
+    the fit is linear in the values, and ``w`` is the first row of the pseudo-inverse of the
+    Vandermonde matrix (order at most ``n - 1``; the mean when that is 0)."""
     n = len(times)
     deg = min(order, n - 1)
     if deg <= 0:
         return np.full(n, 1.0 / n)
     t = np.asarray(times, dtype=np.float64) - at
-    scale = float(np.abs(t).max()) or 1.0
+    scale = float(np.abs(t).max()) or 1.0  # times centred on ``at`` and scaled: conditioning
+    # Column 0 of the Vandermonde matrix is the polynomial's value at ``at``.
     return np.linalg.pinv(np.vander(t / scale, deg + 1, increasing=True))[0]
 
 
