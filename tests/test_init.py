@@ -11,7 +11,7 @@ from gaitwatch.mocap.mot import MotTable
 from tracker.body import BodyModel
 from tracker.config import TrackerConfig
 from tracker.dof import DOF
-from tracker.init import FLEXED_OFFSETS_DEG, body_configurations
+from tracker.init import FLEXED_OFFSETS_DEG, SEATED_LEAN_DEG, body_configurations
 
 FEET = [L_HEEL, L_TOE, R_HEEL, R_TOE]
 
@@ -60,7 +60,67 @@ def test_no_flexed_phases_by_request() -> None:
     assert len(labels) == 9 and not any(lab.startswith("flexed") for lab in labels)
     # the general profile allows sitting
     _, _, _, labels = _configs(4, 2, "general")
-    assert labels[-1] == "seated" and len(labels) == 1 + 4 + 2 + 1
+    assert labels[-3:] == ["seated", "seated-lean25", "seated-lean50"]
+    assert len(labels) == 1 + 4 + 2 + len(SEATED_LEAN_DEG)
+
+
+def test_seated_configurations_stand_on_their_feet() -> None:
+    """Seated bodies are placed by their feet (the floor point the searches use is under the
+    feet, a thigh's length ahead of a seated pelvis), sit on the floor's level, and lean."""
+    body, (low, high), poses, labels = _configs(4, 0, "general")
+    seated = [i for i, lab in enumerate(labels) if lab.startswith("seated")]
+    joints = body.forward(poses[seated])
+    np.testing.assert_allclose(joints[:, FEET, :2].mean(axis=1), 0.0, atol=1e-9)
+    np.testing.assert_allclose(joints[:, FEET, 2].min(axis=1), 0.0, atol=1e-9)
+    # the pelvis is behind the feet (heading 0 faces +x) and low
+    assert (poses[seated, DOF["root_x"]] < -0.3).all()
+    assert (joints[:, 2, 2] < 0.7).all()  # the sacrum, seated
+    np.testing.assert_allclose(
+        np.degrees(poses[seated, DOF["trunk_flexion"]]), SEATED_LEAN_DEG, atol=1e-9
+    )
+    assert np.all(np.diff(joints[:, 0, 2]) < -0.05)  # the head lowers as the trunk leans
+    # the other configurations keep their pelvis at the placement point
+    others = [i for i in range(len(labels)) if i not in seated]
+    assert (poses[others][:, [DOF["root_x"], DOF["root_y"]]] == 0.0).all()
+    # the walking profile has no seated configuration
+    _, _, _, labels = _configs(4, 0, "walking")
+    assert not any(lab.startswith("seated") for lab in labels)
+
+
+def test_initial_search_finds_a_seated_person_by_their_feet() -> None:
+    """The tracker's own body seated at a position and heading, seen by two cameras: the
+    initial search finds it seated there (before, the seated configuration was placed with its
+    pelvis on the floor point under the feet, half a metre off)."""
+    from tracker.camera import Camera
+    from tracker.init import floor_point, initial_search
+    from tracker.likelihood import SilhouetteLikelihood
+
+    body, (low, high), poses, labels = _configs(4, 0, "general")
+    cfg = TrackerConfig.model_validate({"limits_profile": "general"})
+    cams = [
+        Camera.look_at(name="a", position=[4.0, 1.0, 2.3], target=[0.5, 0.3, 0.6]),
+        Camera.look_at(name="b", position=[0.0, -4.0, 2.3], target=[0.5, 0.3, 0.6]),
+    ]
+    cams = [c.scaled(160, 120) for c in cams]
+    lik = SilhouetteLikelihood(body, cams)
+    for yaw in (0.3, 2.5):
+        truth = poses[labels.index("seated-lean25")].copy()
+        c, s = np.cos(yaw), np.sin(yaw)
+        ox, oy = truth[DOF["root_x"]], truth[DOF["root_y"]]
+        truth[DOF["root_x"]] = 0.5 + c * ox - s * oy
+        truth[DOF["root_y"]] = 0.3 + s * ox + c * oy
+        truth[DOF["root_yaw"]] = yaw
+        feet = body.forward(truth[None])[0][FEET, :2].mean(axis=0)
+        np.testing.assert_allclose(feet, [0.5, 0.3], atol=1e-9)
+        masks = [np.asarray(lik.render_mask(truth, i)) for i in range(len(cams))]
+        lik.set_silhouettes(masks)
+        fp = floor_point(cams, masks)
+        assert np.linalg.norm(fp - feet) < 0.25  # the floor point is under the feet
+        res = initial_search(lik, body, cams, masks, cfg, limits=(low, high), dt=0.05)
+        best = res.best
+        err = np.linalg.norm(body.forward(best[None])[0] - body.forward(truth[None])[0], axis=1)
+        assert err.mean() < 0.08, f"heading {yaw}: mean key-point error {err.mean():.3f} m"
+        assert res.best_weight > 0.7
 
 
 def _crouch_table(n: int = 41) -> MotTable:

@@ -76,6 +76,12 @@ FLEXED_OFFSETS_DEG: dict[str, float] = {
 }
 
 
+#: Trunk flexion of the seated configurations (degrees; clamped to the limits): upright, and
+#: leaning forward as one does while sitting down, before rising, or resting the forearms on
+#: the knees.
+SEATED_LEAN_DEG: tuple[float, ...] = (0.0, 25.0, 50.0)
+
+
 def walking_phase_angles(phase: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Approximate sagittal hip and knee flexion (degrees) over a gait cycle.
 
@@ -135,18 +141,33 @@ def body_configurations(
     seat = np.radians(85.0)
     hip, knee = DOF["l_hip_flexion"], DOF["l_knee_flexion"]
     if config.init.seated and high[hip] >= seat and high[knee] >= seat:
-        p = base.copy()
-        for side in ("l", "r"):
-            p[DOF[f"{side}_hip_flexion"]] = np.radians(90.0)
-            p[DOF[f"{side}_knee_flexion"]] = np.radians(90.0)
-            p[DOF[f"{side}_elbow_flexion"]] = np.radians(60.0)
-        poses.append(p)
-        labels.append("seated")
+        trunk = DOF["trunk_flexion"]
+        leans = sorted(
+            {float(np.clip(np.radians(d), low[trunk], high[trunk])) for d in SEATED_LEAN_DEG}
+        )
+        for lean in leans:
+            p = base.copy()
+            for side in ("l", "r"):
+                p[DOF[f"{side}_hip_flexion"]] = np.radians(90.0)
+                p[DOF[f"{side}_knee_flexion"]] = np.radians(90.0)
+                p[DOF[f"{side}_elbow_flexion"]] = np.radians(60.0)
+            p[trunk] = lean
+            poses.append(p)
+            labels.append("seated" if lean == 0.0 else f"seated-lean{np.degrees(lean):.0f}")
     out = clamp(np.stack(poses), low, high)
     # Root height so that the lowest foot point touches the floor.
     out[:, DOF["root_z"]] = 0.0
     joints = np.asarray(body.forward(out))
     out[:, DOF["root_z"]] = -joints[:, _FEET, 2].min(axis=1)
+    # A seated body's feet stand a thigh's length ahead of its pelvis, and the searches place
+    # a configuration at the floor point under the silhouette (its feet): so seated
+    # configurations are moved to have their feet, not their pelvis, at x = y = 0
+    # (initial_search turns that offset with the heading).
+    seated = np.array([lab.startswith("seated") for lab in labels])
+    if seated.any():
+        feet = joints[seated][:, _FEET, :2].mean(axis=1)
+        out[seated, DOF["root_x"]] -= feet[:, 0]
+        out[seated, DOF["root_y"]] -= feet[:, 1]
     return clamp(out, low, high), labels
 
 
@@ -245,8 +266,12 @@ def initial_search(
         idx = np.linspace(0, total - 1, ic.max_candidates).round().astype(np.intp)
     ci, pi, hi = np.unravel_index(idx, (nc, npos, nh))
     cand = configs[ci].copy()
-    cand[:, DOF["root_x"]] = xy[pi, 0]
-    cand[:, DOF["root_y"]] = xy[pi, 1]
+    # A configuration's own root x, y (heading 0) is its offset from the grid position: zero
+    # but for the seated ones, whose feet are placed there (body_configurations).
+    ox, oy = cand[:, DOF["root_x"]], cand[:, DOF["root_y"]]
+    cy, sy = np.cos(yaws[hi]), np.sin(yaws[hi])
+    cand[:, DOF["root_x"]] = xy[pi, 0] + cy * ox - sy * oy
+    cand[:, DOF["root_y"]] = xy[pi, 1] + sy * ox + cy * oy
     cand[:, DOF["root_yaw"]] = yaws[hi]
     clamp(cand, low, high)
     weights = np.empty(cand.shape[0])
