@@ -64,6 +64,8 @@ DEFAULT_RECORDINGS = (
 )
 DEFAULT_VIEWS = ("oblique", "side+frontal")
 EVENT_TOLERANCE_S = 0.2
+#: A video transfer matches a true one of the same type starting within this time (s).
+TRANSFER_TOLERANCE_S = 1.0
 
 #: Summary fields compared as differences: (label, getter, scale, unit)
 SUMMARY_FIELDS = (
@@ -98,9 +100,16 @@ class SceneResult:
     diff: dict[str, float] = field(default_factory=dict)
     error: str = ""
     ncams: int = 1
+    transfers_truth: int = 0
+    transfers_video: int = 0
+    transfers_matched: int = 0
+    transfer_start_ms: float = math.nan  # median |start error| of the matched transfers
+    transfer_duration_ms: float = math.nan  # median |duration error|
 
     @property
     def gait(self) -> str:
+        if self.recording in A.TRANSFERS:
+            return "transfers"
         return "crouch" if self.recording in A.PATHOLOGICAL else "walk"
 
 
@@ -121,6 +130,7 @@ def compare(truth: Trajectory, video: Trajectory, config: GaitConfig) -> SceneRe
     except GaitInputError as err:
         res.error = str(err)
         return res
+    compare_transfers(ref.transfers, est.transfers, res)
     res.strides_truth, res.strides_video = len(ref.strides), len(est.strides)
     ref_events = [e.model_dump() for e in ref.events]
     ev = match_events(est.events, ref_events, EVENT_TOLERANCE_S)
@@ -137,6 +147,30 @@ def compare(truth: Trajectory, video: Trajectory, config: GaitConfig) -> SceneRe
     for label, get, scale, _ in SUMMARY_FIELDS:
         res.diff[label] = scale * (_value(get(est.summary)) - _value(get(ref.summary)))
     return res
+
+
+def compare_transfers(truth: list, video: list, res: SceneResult) -> None:
+    """Match the video's transfers to the truth's (same type, start within
+    ``TRANSFER_TOLERANCE_S``, nearest first, each at most once) and fill ``res``'s counts and
+    median absolute start and duration errors."""
+    res.transfers_truth, res.transfers_video = len(truth), len(video)
+    pairs = sorted(
+        (abs(v.start_s - t.start_s), i, j)
+        for i, t in enumerate(truth)
+        for j, v in enumerate(video)
+        if v.type == t.type and abs(v.start_s - t.start_s) <= TRANSFER_TOLERANCE_S
+    )
+    used_t, used_v, start, duration = set(), set(), [], []
+    for d, i, j in pairs:
+        if i in used_t or j in used_v:
+            continue
+        used_t.add(i)
+        used_v.add(j)
+        start.append(1000 * d)
+        duration.append(1000 * abs(video[j].duration_s - truth[i].duration_s))
+    res.transfers_matched = len(start)
+    res.transfer_start_ms = float(statistics.median(start)) if start else math.nan
+    res.transfer_duration_ms = float(statistics.median(duration)) if start else math.nan
 
 
 def _f(x: float, digits: int = 1, signed: bool = True) -> str:
@@ -156,11 +190,13 @@ def scene_table(results: list[SceneResult]) -> str:
         "events missed / extra",
         *(f"{label} %" for label, _ in PCT_FIELDS),
         *(f"{label} {unit}" for label, _, _, unit in SUMMARY_FIELDS),
+        "transfers truth / video (matched)",
+        "transfer start / duration ms",
     ]
     rows = []
     for r in results:
         if r.error:
-            rows.append([r.recording, r.view, _f(r.all_mm, 0, False), r.error] + ["-"] * 10)
+            rows.append([r.recording, r.view, _f(r.all_mm, 0, False), r.error] + ["-"] * 12)
             continue
         rows.append(
             [
@@ -173,6 +209,8 @@ def scene_table(results: list[SceneResult]) -> str:
                 f"{r.missed} / {r.extra}",
                 *(_f(r.pct.get(label, math.nan)) for label, _ in PCT_FIELDS),
                 *(_f(r.diff.get(label, math.nan)) for label, *_ in SUMMARY_FIELDS),
+                f"{r.transfers_truth} / {r.transfers_video} ({r.transfers_matched})",
+                f"{_f(r.transfer_start_ms, 0, False)} / {_f(r.transfer_duration_ms, 0, False)}",
             ]
         )
     return A.md_table(head, rows)
@@ -189,6 +227,7 @@ def pooled_table(results: list[SceneResult]) -> str:
     head += [f"{label} %" for label, _ in PCT_FIELDS]
     head += [f"{label} {unit}" for label, _, _, unit in SUMMARY_FIELDS]
     rows = []
+    head += ["transfers truth / video (matched)", "transfer start / duration ms"]
     groups = sorted({(r.gait, r.ncams) for r in results}, key=lambda g: (g[0] != "walk", g))
     for gait, n in groups:
         rs = [r for r in results if (r.gait, r.ncams) == (gait, n)]
@@ -215,6 +254,17 @@ def pooled_table(results: list[SceneResult]) -> str:
         for label, *_ in SUMMARY_FIELDS:
             m, _ = _median_abs([r.diff.get(label, math.nan) for r in ok])
             row.append(_f(m, 1, False))
+        ok = [r for r in rs if not r.error]
+        row.append(
+            f"{sum(r.transfers_truth for r in ok)} / {sum(r.transfers_video for r in ok)} "
+            f"({sum(r.transfers_matched for r in ok)})"
+        )
+        row.append(
+            " / ".join(
+                _f(_median_abs([getattr(r, k) for r in ok])[0], 0, False)
+                for k in ("transfer_start_ms", "transfer_duration_ms")
+            )
+        )
         rows.append(row)
     return A.md_table(head, rows)
 
@@ -305,7 +355,8 @@ def main(argv: list[str] | None = None) -> int:
             f"{rec:9s} {view.label:14s} all {_f(res.all_mm, 0, False):>4s} mm  strides "
             f"{res.strides_truth}/{res.strides_video}  HS {_f(res.hs_ms, 0, False)} ms  speed "
             f"{_f(res.pct.get('speed', math.nan))} %  cadence "
-            f"{_f(res.pct.get('cadence', math.nan))} %  {res.error}",
+            f"{_f(res.pct.get('cadence', math.nan))} %  transfers "
+            f"{res.transfers_truth}/{res.transfers_video}  {res.error}",
             file=sys.stderr,
         )
         bar.update(1)

@@ -69,6 +69,42 @@ def test_empty_video_is_reported_not_raised(gait_video, walk):
     assert "1 (0)" in table  # one scene, none with matched strides
 
 
+def test_transfers_matched_by_type_and_start(gait_video):
+    from gait.result import Transfer
+
+    def t(kind, start, dur):
+        return Transfer(type=kind, start_s=start, end_s=start + dur, duration_s=dur)
+
+    truth = [t("stand_to_sit", 1.0, 0.8), t("sit_to_stand", 3.0, 1.0), t("stand_to_sit", 6.0, 1)]
+    video = [
+        t("stand_to_sit", 1.3, 0.6),  # 300 ms late, 200 ms short
+        t("stand_to_sit", 1.1, 0.9),  # nearer: this one matches (100 ms, 100 ms)
+        t("stand_to_sit", 3.1, 1.0),  # wrong type for the rise at 3.0
+        t("sit_to_stand", 4.5, 1.0),  # too late (1.5 s)
+    ]
+    r = gait_video.SceneResult("75_19", "oblique")
+    gait_video.compare_transfers(truth, video, r)
+    assert (r.transfers_truth, r.transfers_video, r.transfers_matched) == (3, 4, 1)
+    assert r.transfer_start_ms == pytest.approx(100.0)
+    assert r.transfer_duration_ms == pytest.approx(100.0)
+    assert r.gait == "transfers"
+    gait_video.compare_transfers(truth, [], r)
+    assert r.transfers_matched == 0 and np.isnan(r.transfer_start_ms)
+    table = gait_video.scene_table([r])
+    assert "3 / 0 (0)" in table
+
+
+def test_sit_and_rise_trajectory_matches_itself(gait_video):
+    from gait.synthetic import sitting_pose, standing_pose, synthetic_pose_sequence
+
+    stand, sit = standing_pose(), sitting_pose()
+    keys = [(0.0, stand), (1.0, stand), (2.0, sit), (4.0, sit), (5.0, stand), (7.0, stand)]
+    tr = synthetic_pose_sequence(keys, fps=20.0)
+    r = gait_video.compare(tr, tr, GaitConfig())
+    assert r.transfers_truth == r.transfers_video == r.transfers_matched == 2
+    assert r.transfer_start_ms == pytest.approx(0.0, abs=1e-6)
+
+
 @pytest.fixture(scope="module")
 def gait_repeat(gait_video):
     spec = importlib.util.spec_from_file_location(
