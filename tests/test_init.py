@@ -60,8 +60,15 @@ def test_no_flexed_phases_by_request() -> None:
     assert len(labels) == 9 and not any(lab.startswith("flexed") for lab in labels)
     # the general profile allows sitting
     _, _, _, labels = _configs(4, 2, "general")
-    assert labels[-3:] == ["seated", "seated-lean25", "seated-lean50"]
-    assert len(labels) == 1 + 4 + 2 + len(SEATED_LEAN_DEG)
+    assert labels[-6:] == [
+        "seated",
+        "seated-lean25",
+        "seated-lean50",
+        "seated-low",
+        "seated-low-lean25",
+        "seated-low-lean50",
+    ]
+    assert len(labels) == 1 + 4 + 2 + 2 * len(SEATED_LEAN_DEG)
 
 
 def test_seated_configurations_stand_on_their_feet() -> None:
@@ -76,9 +83,12 @@ def test_seated_configurations_stand_on_their_feet() -> None:
     assert (poses[seated, DOF["root_x"]] < -0.3).all()
     assert (joints[:, 2, 2] < 0.7).all()  # the sacrum, seated
     np.testing.assert_allclose(
-        np.degrees(poses[seated, DOF["trunk_flexion"]]), SEATED_LEAN_DEG, atol=1e-9
+        np.degrees(poses[seated, DOF["trunk_flexion"]]), 2 * SEATED_LEAN_DEG, atol=1e-9
     )
-    assert np.all(np.diff(joints[:, 0, 2]) < -0.05)  # the head lowers as the trunk leans
+    head = joints[:, 0, 2].reshape(2, len(SEATED_LEAN_DEG))  # chair, low seat
+    assert np.all(np.diff(head, axis=1) < -0.05)  # the head lowers as the trunk leans
+    sacrum = joints[:, 2, 2].reshape(2, len(SEATED_LEAN_DEG))
+    assert np.all(sacrum[1] < sacrum[0] - 0.05)  # the low seat is lower
     # the other configurations keep their pelvis at the placement point
     others = [i for i in range(len(labels)) if i not in seated]
     assert (poses[others][:, [DOF["root_x"], DOF["root_y"]]] == 0.0).all()

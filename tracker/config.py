@@ -543,6 +543,63 @@ class RedetectConfig(_Model):
     ] = 9
 
 
+class SeatedConfig(_Model):
+    """Sitting down and getting up while the joint limits are the walking profile's.
+
+    The walking ranges (``tracker.dof``) keep the search where gait is, but a seated body needs
+    its hips and knees flexed beyond them and its pelvis lower. Wherever re-detection runs (it
+    runs when the estimate loses weight, as it does when the person sits down), the seated
+    configurations of ``tracker.init`` (upright and leaning) are also weighed, at ``headings``
+    headings over the circle around this frame's floor point, under the seated limits: the
+    profile's with ``tracker.dof.SEATED_DOFS`` widened to the general profile's ranges. When
+    their best (refined by the origin search) outweighs the estimate by ``margin``, the track
+    switches to the seated limits and adopts it: the filter, the origin search and re-detection
+    (which then includes the seated configurations) all search the wider ranges. The search
+    runs only while the estimate weighs less than ``weight_ratio`` of the recent estimates'
+    heaviest (sitting down loses the walking limits' fit; a walk seldom loses as much), and
+    only while the person is lower than the estimate: every camera's silhouette top lies below
+    the top of the estimate's model silhouette by ``top_drop`` of its image height (a walker
+    the walking limits fit keeps its head where the model's is). The track
+    returns to the profile's limits once its estimate has been within them for
+    ``upright_frames`` frames in a row. Nothing changes when the profile already allows sitting
+    (``limits_profile = "general"``).
+    """
+
+    enabled: bool = True
+    headings: Annotated[
+        int, Field(ge=1, le=72, description="Headings of the seated search over the circle")
+    ] = 8
+    weight_ratio: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="Search only while the estimate weighs less than this fraction of "
+            "the heaviest estimate at the last re-detection points (redetect.stable_frames)",
+        ),
+    ] = 0.9
+    top_drop: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="Search only while every camera's silhouette top lies below the "
+            "estimate's model top by at least this fraction of the model's image height",
+        ),
+    ] = 0.1
+    refine_best: Annotated[
+        int, Field(ge=0, le=50, description="Best candidates refined by the origin search")
+    ] = 4
+    margin: Annotated[
+        float,
+        Field(ge=0, le=1, description="Switch when heavier than the estimate by more than this"),
+    ] = 0.02
+    upright_frames: Annotated[
+        int,
+        Field(ge=1, le=1000, description="Frames within the profile's limits before returning"),
+    ] = 3
+
+
 class HeadingCheckConfig(_Model):
     """Walking-direction check of the heading (a silhouette looks alike from front and back).
 
@@ -1158,6 +1215,7 @@ class TrackerConfig(_Model):
     smoothing: SmoothingConfig = Field(default_factory=SmoothingConfig)
     revise: ReviseConfig = Field(default_factory=ReviseConfig)
     redetect: RedetectConfig = Field(default_factory=RedetectConfig)
+    seated: SeatedConfig = Field(default_factory=SeatedConfig)
     heading_check: HeadingCheckConfig = Field(default_factory=HeadingCheckConfig)
     leg_swap: LegSwapConfig = Field(default_factory=LegSwapConfig)
     refine: RefineConfig = Field(default_factory=RefineConfig)
@@ -1235,6 +1293,13 @@ class TrackerConfig(_Model):
         if self.limits_overrides_deg:
             lim = lim.with_overrides(self.limits_overrides_deg)
         return lim
+
+    def seated_limits(self):  # -> tracker.dof.JointLimits
+        """The limits of the seated mode (``seated``): :meth:`joint_limits` with
+        ``tracker.dof.SEATED_DOFS`` widened to the general profile's ranges."""
+        from tracker.dof import SEATED_DOFS, JointLimits
+
+        return self.joint_limits().widened(JointLimits.profile("general"), SEATED_DOFS)
 
 
 def _format(source: str, err: ValidationError) -> str:

@@ -26,7 +26,7 @@ positions) and :data:`LIMIT_PROFILES` gives a profile per activity. Change them 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Final
 
 import numpy as np
@@ -156,6 +156,21 @@ LIMIT_PROFILES: Final[dict[str, dict[str, tuple[float, float]]]] = {
     "walking": _WALKING,
 }
 
+#: The DOFs a seated body needs beyond the walking ranges (a low pelvis tilted back, the trunk
+#: leaning over flexed hips, knees and ankles): the tracker's seated mode widens them to the
+#: general profile's ranges (``TrackerConfig.seated_limits``).
+SEATED_DOFS: Final[tuple[str, ...]] = (
+    "root_z",
+    "root_pitch",
+    "trunk_flexion",
+    "l_hip_flexion",
+    "r_hip_flexion",
+    "l_knee_flexion",
+    "r_knee_flexion",
+    "l_ankle_flexion",
+    "r_ankle_flexion",
+)
+
 
 class JointLimits(BaseModel):
     """``[low, high]`` per DOF, degrees for angles and metres for the root position."""
@@ -191,6 +206,14 @@ class JointLimits(BaseModel):
 
     def with_overrides(self, overrides: Mapping[str, tuple[float, float]]) -> JointLimits:
         return JointLimits(ranges={**self.ranges, **overrides})
+
+    def widened(self, other: JointLimits, names: Sequence[str]) -> JointLimits:
+        """These limits with the ``names`` DOFs' ranges stretched to cover ``other``'s too."""
+        r = dict(self.ranges)
+        for n in names:
+            (a, b), (c, d) = r[n], other.ranges[n]
+            r[n] = (min(a, c), max(b, d))
+        return JointLimits(ranges=r)
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         """``(low, high)`` as (31,) arrays in internal units (metres, radians)."""

@@ -80,6 +80,9 @@ FLEXED_OFFSETS_DEG: dict[str, float] = {
 #: leaning forward as one does while sitting down, before rising, or resting the forearms on
 #: the knees.
 SEATED_LEAN_DEG: tuple[float, ...] = (0.0, 25.0, 50.0)
+#: Knee flexion of the seated configurations (degrees): a chair's seat (about 0.45 m, knees at
+#: a right angle) and a low one (a sofa or a low stool: the feet drawn back under the knees).
+SEATED_KNEE_DEG: tuple[float, float] = (90.0, 120.0)
 
 
 def walking_phase_angles(phase: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -145,15 +148,18 @@ def body_configurations(
         leans = sorted(
             {float(np.clip(np.radians(d), low[trunk], high[trunk])) for d in SEATED_LEAN_DEG}
         )
-        for lean in leans:
-            p = base.copy()
-            for side in ("l", "r"):
-                p[DOF[f"{side}_hip_flexion"]] = np.radians(90.0)
-                p[DOF[f"{side}_knee_flexion"]] = np.radians(90.0)
-                p[DOF[f"{side}_elbow_flexion"]] = np.radians(60.0)
-            p[trunk] = lean
-            poses.append(p)
-            labels.append("seated" if lean == 0.0 else f"seated-lean{np.degrees(lean):.0f}")
+        for knee_deg, name in zip(SEATED_KNEE_DEG, ("seated", "seated-low"), strict=True):
+            for lean in leans:
+                p = base.copy()
+                for side in ("l", "r"):
+                    p[DOF[f"{side}_hip_flexion"]] = np.radians(90.0)
+                    p[DOF[f"{side}_knee_flexion"]] = np.radians(knee_deg)
+                    # the foot flat: dorsiflexed by the shank's lean back from the vertical
+                    p[DOF[f"{side}_ankle_flexion"]] = np.radians(knee_deg - 90.0)
+                    p[DOF[f"{side}_elbow_flexion"]] = np.radians(60.0)
+                p[trunk] = lean
+                poses.append(p)
+                labels.append(name if lean == 0.0 else f"{name}-lean{np.degrees(lean):.0f}")
     out = clamp(np.stack(poses), low, high)
     # Root height so that the lowest foot point touches the floor.
     out[:, DOF["root_z"]] = 0.0

@@ -56,7 +56,7 @@ from gaitwatch.conventions import L_ANKLE, L_HEEL, L_TOE, R_ANKLE, R_HEEL, R_TOE
 from tracker.arms import search_arms
 from tracker.body import GIRTH_PARTS
 from tracker.config import TrackerConfig
-from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, wrap_angle
+from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, SEATED_DOFS, wrap_angle
 from tracker.filters import Filter, make_filter, select_distinct
 from tracker.init import body_configurations, floor_point, initial_search
 from tracker.occlusion import OcclusionLearner, background_regions
@@ -66,6 +66,8 @@ from tracker.segmentation import Segmentation, Segmenter, downscale_mask, keep_b
 from tracker.smoothing import RESTART_STATUSES
 
 log = logging.getLogger(__name__)
+#: Indices of the DOFs the seated mode widens (tracker.dof.SEATED_DOFS).
+_SEATED_IDX = np.array([DOF[n] for n in SEATED_DOFS])
 
 #: Idle numba (OpenMP) threads sleep rather than spin; must be decided before numba starts its
 #: threads (the track command sets their number after importing this module).
@@ -351,6 +353,19 @@ class Tracker:
                 tolerance_m=c.collision.tolerance_m, softness_m=c.collision.softness_m
             )
         self.limits = c.joint_limits().arrays()
+        #: The profile's limits and the seated mode's (config.seated; None when the profile
+        #: already allows sitting or the mode is off). ``self.limits`` is one of the two.
+        self._base_limits = self.limits
+        seated = c.seated_limits().arrays() if c.seated.enabled else None
+        if seated is not None and all(
+            np.array_equal(a, b) for a, b in zip(seated, self.limits, strict=True)
+        ):
+            seated = None
+        self._seated_limits = seated
+        self._seated = False
+        self._upright_frames = 0
+        #: (body, its seated configurations) of the last seated search.
+        self._seated_configs: tuple[object, np.ndarray] | None = None
         self.rng = rng
         self.filter: Filter = make_filter(c.filter, c, rng=rng, limits=self.limits)
         bgs = list(backgrounds) if backgrounds is not None else [None] * len(self.cameras)
@@ -410,8 +425,8 @@ class Tracker:
         #: Weights of the estimates at the last re-detection points; skipped frames in a row.
         self._redetect_weights: list[float] = []
         self._redetect_skipped = 0
-        #: (body, its body configurations) of the last re-detection.
-        self._redetect_configs: tuple[object, np.ndarray] | None = None
+        #: (body, limits, their body configurations) of the last re-detection.
+        self._redetect_configs: tuple[object, object, np.ndarray] | None = None
         #: The initial search's settings with re-detection's number of refined candidates and
         #: flexed-walk phases.
         redetect_init = {"refine_best": c.redetect.refine_best}
@@ -419,6 +434,10 @@ class Tracker:
             redetect_init["flexed_phases"] = c.redetect.flexed_phases
         self._redetect_config = c.model_copy(
             update={"init": c.init.model_copy(update=redetect_init)}
+        )
+        #: The initial search's settings for the seated search (config.seated.refine_best).
+        self._seated_config = c.model_copy(
+            update={"init": c.init.model_copy(update={"refine_best": c.seated.refine_best})}
         )
         if self._estimate_girth:
             self._girth_bodies[self.body.shape_key] = self.body
@@ -682,6 +701,8 @@ class Tracker:
             self._redetect_configs,
             self.rng,
             self.limits,
+            self._base_limits,
+            self._seated_limits,
         )
         memo: dict[int, object] = {id(x): x for x in shared}
         memo[id(self._window)] = []
@@ -1079,6 +1100,7 @@ class Tracker:
         pose, weight = self._refine_origin(pose, weight, dt)
         if c.refine.enabled:
             pose, weight = self._refine_pose(pose, weight, dt)
+        self._update_seated(pose)
         return pose, weight
 
     def _redetect(self, pose: np.ndarray, weight: float, dt: float) -> tuple[np.ndarray, float]:
@@ -1106,17 +1128,103 @@ class Tracker:
             return pose, weight
         self._redetect_skipped = 0
         pose, weight = self._redetect_search(pose, weight, dt)
+        pose, weight = self._seated_search(pose, weight, dt, recent)
         self._redetect_weights = [*recent, weight]
         return pose, weight
+
+    # -- seated mode (config.seated) ----------------------------------------------------------
+    def _set_limits(self, limits: tuple[np.ndarray, np.ndarray]) -> None:
+        """Search within ``limits`` from now on (the filters' particles are clamped to them)."""
+        self.limits = limits
+        self.filter.set_limits(limits)
+        if self._alt is not None:
+            self._alt.filter.set_limits(limits)
+
+    def _seated_search(
+        self, pose: np.ndarray, weight: float, dt: float, recent: list[float]
+    ) -> tuple[np.ndarray, float]:
+        """Weigh the seated configurations around this frame's floor point under the seated
+        limits; when the best outweighs the estimate by ``seated.margin``, switch to those
+        limits and adopt it (its best candidates join the particles). Only while the estimate
+        weighs less than ``seated.weight_ratio`` of the heaviest of ``recent`` (the last
+        re-detection points' estimates): sitting down loses the walking limits' fit."""
+        sc = self.config.seated
+        if self._seated_limits is None or self._seated or not np.all(np.isfinite(self._floor_now)):
+            return pose, weight
+        if recent and weight >= sc.weight_ratio * max(recent):
+            return pose, weight
+        if not self._lower_than(pose, sc.top_drop):
+            return pose, weight
+        cached = self._seated_configs
+        if cached is None or cached[0] is not self.body:
+            configs, labels = body_configurations(
+                self.body, self._redetect_config, self._seated_limits
+            )
+            keep = [i for i, lab in enumerate(labels) if lab.startswith("seated")]
+            self._seated_configs = (self.body, configs[keep])
+        headings = pose[DOF["root_yaw"]] + np.arange(sc.headings) * (2 * np.pi / sc.headings)
+        res = initial_search(
+            self._lik,
+            self.body,
+            self.lik_cameras,
+            self._masks,
+            self._seated_config,
+            limits=self._seated_limits,
+            dt=dt,
+            floor_xy=self._floor_now,
+            headings=headings,
+            configs=self._seated_configs[1],
+            threads=self.threads,
+        )
+        if res is None or not res.best_weight > weight + sc.margin:
+            return pose, weight
+        self._seated, self._upright_frames = True, 0
+        self._set_limits(self._seated_limits)
+        k = self.config.redetect.inject
+        self.filter.inject(res.poses[:k], res.weights[:k], reset_motion=True)
+        log.info("seated: weight %.3f -> %.3f; the seated limits apply", weight, res.best_weight)
+        return res.best.copy(), float(res.best_weight)
+
+    def _lower_than(self, pose: np.ndarray, drop: float) -> bool:
+        """Whether the silhouettes' tops lie below the top of ``pose``'s model silhouette by at
+        least ``drop`` of that silhouette's height, in every camera that sees both (a person
+        lower than the estimate: sitting down, crouching, bending)."""
+        if not hasattr(self.likelihood, "render_mask"):
+            return True
+        seen = 0
+        for c, mask in enumerate(self._masks):
+            rows = np.flatnonzero(mask.any(axis=1))
+            model = np.flatnonzero(np.asarray(self.likelihood.render_mask(pose, c)).any(axis=1))
+            if rows.size == 0 or model.size == 0:
+                continue
+            seen += 1
+            if rows[0] - model[0] < drop * (model[-1] - model[0] + 1):
+                return False
+        return seen > 0
+
+    def _update_seated(self, pose: np.ndarray) -> None:
+        """Back to the profile's limits once the estimate has been within them (on the DOFs
+        the seated mode widens) for ``seated.upright_frames`` frames in a row."""
+        if not self._seated:
+            return
+        low, high = self._base_limits
+        i = _SEATED_IDX
+        inside = bool(np.all(pose[i] >= low[i] - 1e-9) and np.all(pose[i] <= high[i] + 1e-9))
+        self._upright_frames = self._upright_frames + 1 if inside else 0
+        if self._upright_frames >= self.config.seated.upright_frames:
+            self._seated = False
+            self._set_limits(self._base_limits)
+            log.info("upright again: the profile's limits apply")
 
     def _reduced_search(self, headings: np.ndarray, dt: float, threads: int):
         """Re-detection's reduced initial search at this frame's silhouettes: every body
         configuration (computed once per body), positions around this frame's floor point,
         the given headings (radians); its grid on ``threads`` numba threads, the refinement on
         one. Returns :func:`tracker.init.initial_search`'s result or None."""
-        if self._redetect_configs is None or self._redetect_configs[0] is not self.body:
+        cached = self._redetect_configs
+        if cached is None or cached[0] is not self.body or cached[1] is not self.limits:
             configs, _ = body_configurations(self.body, self._redetect_config, self.limits)
-            self._redetect_configs = (self.body, configs)
+            self._redetect_configs = (self.body, self.limits, configs)
         return initial_search(
             self._lik,
             self.body,
@@ -1127,7 +1235,7 @@ class Tracker:
             dt=dt,
             floor_xy=self._floor_now if np.all(np.isfinite(self._floor_now)) else None,
             headings=headings,
-            configs=self._redetect_configs[1],
+            configs=self._redetect_configs[2],
             threads=threads,
         )
 
@@ -1580,6 +1688,9 @@ class Tracker:
     def _no_pose(self, frame_index: int, time_s: float, reason: str) -> FrameResult:
         self.need_init = True
         self._alt = None
+        if self._seated:  # whoever comes into view next starts under the profile's limits
+            self._seated = False
+            self._set_limits(self._base_limits)
         self.prev_pose = None
         self._prev_joints = None
         self.prev_time = float(time_s)

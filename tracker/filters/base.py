@@ -221,6 +221,16 @@ class Filter(ABC):
         self.particles = np.concatenate([poses, self.particles])
         self.weights = np.concatenate([np.asarray(weights, dtype=np.float64), self.weights])
 
+    def set_limits(self, limits: tuple[np.ndarray, np.ndarray]) -> None:
+        """New joint limits (the tracker's seated mode); the particles are clamped to them."""
+        low = np.asarray(limits[0], dtype=np.float64)
+        high = np.asarray(limits[1], dtype=np.float64)
+        if low.shape != (N_DOF,) or high.shape != (N_DOF,):
+            raise ValueError("limits must be two (31,) arrays")
+        self.low, self.high = low, high
+        if self.particles.size:
+            self.clamp(self.particles)
+
     @property
     def initialised(self) -> bool:
         return self.particles.shape[0] > 0
