@@ -1006,6 +1006,29 @@ def _commit() -> str:
     return commit
 
 
+def _cpu_model() -> str:
+    """The processor's model name (Linux /proc/cpuinfo), else what ``platform`` says."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
+            if line.lower().startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def environment() -> str:
+    """The processor and the numerical libraries' versions. The tracker is chaotic: the same
+    commit, footage and seeds tracked on another processor or with another NumPy or OpenCV
+    build can end far apart (session 22), so runs pair only within one environment."""
+    import numba
+
+    return (
+        f"{_cpu_model()}, {os.cpu_count()} cores; Python {platform.python_version()}, "
+        f"NumPy {np.__version__}, OpenCV {cv2.__version__}, numba {numba.__version__}"
+    )
+
+
 def run_record(run: Run) -> dict:
     """One run's scores as ``--json`` writes them (``bench/paired.py`` reads them); a score
     that is not a number (no angles scored) is None."""
@@ -1034,6 +1057,7 @@ def write_json(path: Path, runs: list[Run], argv: list[str], args) -> None:
     doc = {
         "command": "python3 bench/accuracy.py" + ("" if not argv else " " + shlex.join(argv)),
         "commit": _commit(),
+        "environment": environment(),
         "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "seed": args.seed,
         "tracker_seed": args.tracker_seed,
@@ -1072,7 +1096,7 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
 ```
 
 - Date: {datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")}; commit {commit}
-- Machine: {os.cpu_count()} cores (nproc), {platform.processor() or platform.machine()},
+- Machine: {environment()};
   load average at the end {load[0]:.1f} (shared with other jobs: ms/frame is indicative)
 - Footage: 640x480 at 20 fps, {
         "rendered frames tracked directly (no codec)"

@@ -61,6 +61,17 @@ def load(paths: list[Path]) -> dict[tuple, dict]:
     return out
 
 
+def environments(paths: list[Path]) -> set[str]:
+    """The ``environment`` entries of ``--json`` files (processor and library versions; files
+    written before session 22 have none)."""
+    out = set()
+    for p in paths:
+        env = json.loads(p.read_text(encoding="utf-8")).get("environment")
+        if env:
+            out.add(env)
+    return out
+
+
 def paired(base: dict[tuple, dict], new: dict[tuple, dict], score: str) -> np.ndarray:
     """(n, 2) base and new values of ``score`` over the keys both have (either value None:
     left out)."""
@@ -124,6 +135,14 @@ def main(argv: list[str] | None = None) -> int:
     if not both:
         print("paired: no run of --base has a partner in --new", file=sys.stderr)
         return 2
+    envs = environments(args.base) | environments(args.new)
+    if len(envs) > 1:
+        print(
+            "warning: the files come from different processors or library versions: the "
+            "tracker's numerics differ, so a run's difference is not the settings' alone:\n  "
+            + "\n  ".join(sorted(envs))
+            + "\n"
+        )
     print(
         f"{len(both)} paired runs; unpaired: {len(base.keys() - both)} base, "
         f"{len(new.keys() - both)} new\n"

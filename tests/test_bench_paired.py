@@ -138,3 +138,22 @@ def test_accuracy_json_round_trip(accuracy, paired, tmp_path):
     knee = m.knee_flexion_rmse_deg
     assert rec["knee_rmse_deg"] == (None if math.isnan(knee) else pytest.approx(knee))
     assert list(paired.load([out])) == [(2, 902, "07_06", "side+frontal", "ipf")]
+    # the processor and library versions are recorded
+    assert doc["environment"] == accuracy.environment()
+    assert f"NumPy {np.__version__}" in doc["environment"]
+
+
+def test_paired_warns_across_environments(paired, tmp_path, capsys):
+    """Files from two processors or library builds pair by seeds, but the runs' numerics
+    differ: the output says so; one environment (or files without one) does not."""
+    runs = [("a", "oblique", 1, "ipf", 100, 90, 10.0)]
+    one = _write(tmp_path, "e1.json", {**_doc(0, runs), "environment": "CPU A; NumPy 2"})
+    same = _write(tmp_path, "e2.json", {**_doc(1, runs), "environment": "CPU A; NumPy 2"})
+    other = _write(tmp_path, "e3.json", {**_doc(0, runs), "environment": "CPU B; NumPy 2"})
+    old = _write(tmp_path, "e4.json", _doc(1, runs))
+    assert paired.main(["--base", str(one), "--new", str(other)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("warning: the files come from different processors")
+    assert "CPU A; NumPy 2" in out and "CPU B; NumPy 2" in out
+    assert paired.main(["--base", str(one), str(same), "--new", str(one), str(old)]) == 0
+    assert "warning" not in capsys.readouterr().out
