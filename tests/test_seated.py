@@ -30,14 +30,9 @@ def test_seated_limits_widen_only_the_seated_dofs() -> None:
         np.testing.assert_array_equal(a, b)
 
 
-def _sit_down_clip():
-    """The tracker's own body standing 0.5 s, sitting down over 1 s (hips 90, knees 105 deg,
-    trunk leaning 30 deg then 10), seated 1 s, standing up over 1 s, standing 0.5 s; two
-    cameras at 320x240."""
-    from tracker.likelihood import SilhouetteLikelihood
-    from tracker.synthetic import render_clip, side_cameras, textured_background
-
-    body = BodyModel(1.70)
+def _sit_down_poses(body: BodyModel) -> np.ndarray:
+    """Standing 0.5 s, sitting down over 1 s (hips 90, knees 105 deg, trunk leaning 30 deg
+    then 10), seated 1 s, standing up over 1 s, standing 0.5 s: (81, 31) poses at 20 Hz."""
     stand = body.neutral_pose(1.0, 0.0, 0.6)
     seated = stand.copy()
     for side in ("l", "r"):
@@ -60,7 +55,16 @@ def _sit_down_clip():
     kp = np.stack([k[1] for k in keys])
     i = np.clip(np.searchsorted(kt, times, side="right") - 1, 0, len(kt) - 2)
     w = 0.5 - 0.5 * np.cos(np.pi * np.clip((times - kt[i]) / (kt[i + 1] - kt[i]), 0, 1))
-    poses = (1 - w)[:, None] * kp[i] + w[:, None] * kp[i + 1]
+    return (1 - w)[:, None] * kp[i] + w[:, None] * kp[i + 1]
+
+
+def _sit_down_clip():
+    """:func:`_sit_down_poses` of the tracker's own body, seen by two cameras at 320x240."""
+    from tracker.likelihood import SilhouetteLikelihood
+    from tracker.synthetic import render_clip, side_cameras, textured_background
+
+    body = BodyModel(1.70)
+    poses = _sit_down_poses(body)
     rng = np.random.default_rng(5)
     cams = side_cameras(2, image_size=(320, 240), centre=(1.0, 0.0), fps=FPS)
     bgs = [textured_background(320, 240, rng) for _ in cams]
@@ -71,6 +75,31 @@ def _sit_down_clip():
 @pytest.fixture(scope="module")
 def clip():
     return _sit_down_clip()
+
+
+def test_lower_than_standing_from_the_silhouettes_alone(clip) -> None:
+    """The seated search's gate: a silhouette shorter than a standing body of the stature at
+    its floor point by seated.lower_fraction, in every camera."""
+    from tracker.likelihood import SilhouetteLikelihood
+    from tracker.pipeline import Tracker
+
+    body, cams, bgs, _, _ = clip
+    tracker = Tracker(
+        cams, TrackerConfig(), rng=np.random.default_rng(0), backgrounds=bgs, body=body
+    )
+    render = SilhouetteLikelihood(body, tracker.lik_cameras)
+    poses = _sit_down_poses(body)
+    first, seated = poses[0], poses[40]
+    fraction = TrackerConfig().seated.lower_fraction
+    tracker._masks = [np.asarray(render.render_mask(first, c)) for c in range(len(cams))]
+    assert not tracker._lower_than_standing(fraction)
+    tracker._masks = [np.asarray(render.render_mask(seated, c)) for c in range(len(cams))]
+    assert tracker._lower_than_standing(fraction)
+    # one camera that sees nobody is left out; none at all is not "lower"
+    tracker._masks[0] = np.zeros_like(tracker._masks[0])
+    assert tracker._lower_than_standing(fraction)
+    tracker._masks[1] = np.zeros_like(tracker._masks[1])
+    assert not tracker._lower_than_standing(fraction)
 
 
 def _track(clip, seated: bool):

@@ -1128,7 +1128,7 @@ class Tracker:
             return pose, weight
         self._redetect_skipped = 0
         pose, weight = self._redetect_search(pose, weight, dt)
-        pose, weight = self._seated_search(pose, weight, dt, recent)
+        pose, weight = self._seated_search(pose, weight, dt)
         self._redetect_weights = [*recent, weight]
         return pose, weight
 
@@ -1141,19 +1141,16 @@ class Tracker:
             self._alt.filter.set_limits(limits)
 
     def _seated_search(
-        self, pose: np.ndarray, weight: float, dt: float, recent: list[float]
+        self, pose: np.ndarray, weight: float, dt: float
     ) -> tuple[np.ndarray, float]:
         """Weigh the seated configurations around this frame's floor point under the seated
         limits; when the best outweighs the estimate by ``seated.margin``, switch to those
-        limits and adopt it (its best candidates join the particles). Only while the estimate
-        weighs less than ``seated.weight_ratio`` of the heaviest of ``recent`` (the last
-        re-detection points' estimates): sitting down loses the walking limits' fit."""
+        limits and adopt it (its best candidates join the particles). Only while the person
+        is lower than a standing body of the stature (:meth:`_lower_than_standing`)."""
         sc = self.config.seated
         if self._seated_limits is None or self._seated or not np.all(np.isfinite(self._floor_now)):
             return pose, weight
-        if recent and weight >= sc.weight_ratio * max(recent):
-            return pose, weight
-        if not self._lower_than(pose, sc.top_drop):
+        if not self._lower_than_standing(sc.lower_fraction):
             return pose, weight
         cached = self._seated_configs
         if cached is None or cached[0] is not self.body:
@@ -1176,29 +1173,53 @@ class Tracker:
             configs=self._seated_configs[1],
             threads=self.threads,
         )
-        if res is None or not res.best_weight > weight + sc.margin:
+        if res is None:
+            return pose, weight
+        rc = self.config.redetect
+        self._set_limits(self._seated_limits)
+        if res.best_weight > weight + sc.margin:
+            new, w = res.best.copy(), float(res.best_weight)
+            self.filter.inject(res.poses[: rc.inject], res.weights[: rc.inject], reset_motion=True)
+        elif rc.refine_steps > 0 and res.best_weight >= rc.refine_ratio * weight:
+            # As in re-detection: a coarse seated grid seldom outweighs a refined estimate, so
+            # its best candidates are refined by the filter (under the seated limits) first.
+            k = rc.refine_candidates
+            new, w, saved = self._trial_steps(res.poses[:k], res.weights[:k], dt, rc.refine_steps)
+            new, w = self._refine_origin(new, w, dt)
+            if not w > weight + sc.margin:
+                self.filter.__dict__.update(saved)
+                self._set_limits(self._base_limits)
+                return pose, weight
+        else:
+            self._set_limits(self._base_limits)
             return pose, weight
         self._seated, self._upright_frames = True, 0
-        self._set_limits(self._seated_limits)
-        k = self.config.redetect.inject
-        self.filter.inject(res.poses[:k], res.weights[:k], reset_motion=True)
-        log.info("seated: weight %.3f -> %.3f; the seated limits apply", weight, res.best_weight)
-        return res.best.copy(), float(res.best_weight)
+        log.info("seated: weight %.3f -> %.3f; the seated limits apply", weight, w)
+        return new, w
 
-    def _lower_than(self, pose: np.ndarray, drop: float) -> bool:
-        """Whether the silhouettes' tops lie below the top of ``pose``'s model silhouette by at
-        least ``drop`` of that silhouette's height, in every camera that sees both (a person
-        lower than the estimate: sitting down, crouching, bending)."""
-        if not hasattr(self.likelihood, "render_mask"):
-            return True
+    def _lower_than_standing(self, fraction: float) -> bool:
+        """Whether the person is lower than someone of the body's stature standing: in every
+        camera that sees them, the silhouette's height in the image is below (1 - ``fraction``)
+        of that of a standing body of the stature at the silhouette's floor point (its bottom
+        back-projected to the floor; depth from the feet, not from the estimate, which through
+        one camera can slide away and shrink to fit)."""
         seen = 0
-        for c, mask in enumerate(self._masks):
+        for cam, mask in zip(self.lik_cameras, self._masks, strict=True):
             rows = np.flatnonzero(mask.any(axis=1))
-            model = np.flatnonzero(np.asarray(self.likelihood.render_mask(pose, c)).any(axis=1))
-            if rows.size == 0 or model.size == 0:
+            if rows.size == 0:
+                continue
+            top, bottom = int(rows[0]), int(rows[-1])
+            cols = np.flatnonzero(mask[max(0, bottom - 2) : bottom + 1].any(axis=0))
+            foot = cam.pixel_to_floor(np.array([[float(cols.mean()), float(bottom)]]), 0.0)[0]
+            if not np.all(np.isfinite(foot)):
+                continue
+            head = np.array([[foot[0], foot[1], self.body.height_m]])
+            standing_top = float(np.asarray(cam.project(head))[0, 1])
+            expected = bottom - standing_top
+            if not np.isfinite(expected) or expected <= 0:
                 continue
             seen += 1
-            if rows[0] - model[0] < drop * (model[-1] - model[0] + 1):
+            if bottom - top >= (1.0 - fraction) * expected:
                 return False
         return seen > 0
 
