@@ -16,8 +16,11 @@ the truth's analysis with no video event of the same foot and type within 0.2 s 
 missed, video events matched to none as extra), walking speed, cadence and stride length over
 the matched strides (relative error, %; ``gait.evaluation.parameter_errors_pct``), and the
 recording summaries' stance and double support (percentage points), step width (mm) and knee
-range of motion and peak swing flexion (degrees); then the medians of the absolute errors
-(and of the signed event errors) per gait and camera set.
+range of motion and peak swing flexion (degrees), and the transfers (sit-to-stand,
+stand-to-sit) of both analyses matched by type and start within 1 s, with the median start and
+duration errors; then the medians of the absolute errors (and of the signed event errors) per
+gait and camera set. ``--recordings 75_19`` (CMU: sits down and stands up twice) measures the
+transfers.
 
 The recordings are short (2.4-6 s, 1-4 strides each), so one scene's parameters rest on one
 or two strides: read the medians, not single rows.
