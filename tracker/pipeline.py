@@ -364,8 +364,8 @@ class Tracker:
         self._seated_limits = seated
         self._seated = False
         self._upright_frames = 0
-        #: (body, its seated configurations) of the last seated search.
-        self._seated_configs: tuple[object, np.ndarray] | None = None
+        #: (body, limits, the seated configurations) of the last seated search.
+        self._seated_configs: tuple[object, object, np.ndarray] | None = None
         self.rng = rng
         self.filter: Filter = make_filter(c.filter, c, rng=rng, limits=self.limits)
         bgs = list(backgrounds) if backgrounds is not None else [None] * len(self.cameras)
@@ -1152,27 +1152,8 @@ class Tracker:
             return pose, weight
         if not self._lower_than_standing(sc.lower_fraction):
             return pose, weight
-        cached = self._seated_configs
-        if cached is None or cached[0] is not self.body:
-            configs, labels = body_configurations(
-                self.body, self._redetect_config, self._seated_limits
-            )
-            keep = [i for i, lab in enumerate(labels) if lab.startswith("seated")]
-            self._seated_configs = (self.body, configs[keep])
         headings = pose[DOF["root_yaw"]] + np.arange(sc.headings) * (2 * np.pi / sc.headings)
-        res = initial_search(
-            self._lik,
-            self.body,
-            self.lik_cameras,
-            self._masks,
-            self._seated_config,
-            limits=self._seated_limits,
-            dt=dt,
-            floor_xy=self._floor_now,
-            headings=headings,
-            configs=self._seated_configs[1],
-            threads=self.threads,
-        )
+        res = self._reduced_search(headings, dt, self.threads, seated=True)
         if res is None:
             return pose, weight
         rc = self.config.redetect
@@ -1237,26 +1218,44 @@ class Tracker:
             self._set_limits(self._base_limits)
             log.info("upright again: the profile's limits apply")
 
-    def _reduced_search(self, headings: np.ndarray, dt: float, threads: int):
+    def _reduced_search(
+        self,
+        headings: np.ndarray,
+        dt: float,
+        threads: int,
+        *,
+        seated: bool = False,
+    ):
         """Re-detection's reduced initial search at this frame's silhouettes: every body
-        configuration (computed once per body), positions around this frame's floor point,
-        the given headings (radians); its grid on ``threads`` numba threads, the refinement on
-        one. Returns :func:`tracker.init.initial_search`'s result or None."""
-        cached = self._redetect_configs
-        if cached is None or cached[0] is not self.body or cached[1] is not self.limits:
-            configs, _ = body_configurations(self.body, self._redetect_config, self.limits)
-            self._redetect_configs = (self.body, self.limits, configs)
+        configuration (computed once per body and limits), positions around this frame's floor
+        point, the given headings (radians); its grid on ``threads`` numba threads, the
+        refinement on one. ``seated``: the seated configurations only, under the seated limits,
+        with ``seated.refine_best`` refined (the seated mode's search). Returns
+        :func:`tracker.init.initial_search`'s result or None."""
+        if seated:
+            config, limits, cached = self._seated_config, self._seated_limits, self._seated_configs
+        else:
+            config, limits, cached = self._redetect_config, self.limits, self._redetect_configs
+        if cached is None or cached[0] is not self.body or cached[1] is not limits:
+            configs, labels = body_configurations(self.body, config, limits)
+            if seated:
+                configs = configs[[i for i, lab in enumerate(labels) if lab.startswith("seated")]]
+            cached = (self.body, limits, configs)
+            if seated:
+                self._seated_configs = cached
+            else:
+                self._redetect_configs = cached
         return initial_search(
             self._lik,
             self.body,
             self.lik_cameras,
             self._masks,
-            self._redetect_config,
-            limits=self.limits,
+            config,
+            limits=limits,
             dt=dt,
             floor_xy=self._floor_now if np.all(np.isfinite(self._floor_now)) else None,
             headings=headings,
-            configs=self._redetect_configs[2],
+            configs=cached[2],
             threads=threads,
         )
 
