@@ -552,7 +552,9 @@ class SeatedConfig(_Model):
     configurations of ``tracker.init`` (upright and leaning) are also weighed, at ``headings``
     headings over the circle around this frame's floor point, under the seated limits: the
     profile's with ``tracker.dof.SEATED_DOFS`` widened to the general profile's ranges. When
-    their best (refined by the origin search) outweighs the estimate by ``margin``, the track
+    their best (refined by the origin search) outweighs the estimate by ``margin``, or does so
+    after ``redetect.refine_steps`` filter steps from its best candidates (tried when it weighs
+    at least ``redetect.refine_ratio`` times the estimate, as in re-detection), the track
     switches to the seated limits and adopts it: the filter, the origin search and re-detection
     (which then includes the seated configurations) all search the wider ranges. The search
     runs only while the person is lower than someone of the stature standing: in every camera

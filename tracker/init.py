@@ -7,8 +7,9 @@ plausible configurations:
   flexion of both legs half a cycle apart, arms swinging opposite), ``flexed_phases`` phases of
   a flexed walk (crouch gait, a stooped elderly walk: the walking cycle with the hips, knees,
   ankles and trunk flexed further, :data:`FLEXED_OFFSETS_DEG`), and seated when the joint
-  limits allow it (each clamped to them); the root height of each is set so that the lowest
-  foot point is on the floor;
+  limits allow it (a chair's seat and a low one, :data:`SEATED_KNEE_DEG`, each upright and
+  leaning, :data:`SEATED_LEAN_DEG`; placed by their feet, not their pelvis); each clamped to
+  the limits; the root height of each is set so that the lowest foot point is on the floor;
 * positions: a square grid of ``position_step_m`` within ``position_radius_m`` of the floor point
   under the silhouette (the bottom of each camera's silhouette back-projected to the floor with
   ``Camera.pixel_to_floor``; median over the cameras);
@@ -104,13 +105,14 @@ def walking_phase_angles(phase: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def body_configurations(
     body, config: TrackerConfig, limits: tuple[np.ndarray, np.ndarray]
 ) -> tuple[np.ndarray, list[str]]:
-    """Candidate body configurations at x = y = 0, heading 0, feet on the floor.
+    """Candidate body configurations at x = y = 0, heading 0, feet on the floor. The seated
+    ones have their feet's mid-point at x = y = 0, their pelvis behind it.
 
     Returns
     -------
     poses : ndarray, shape (K, 31)
     labels : list of str
-        "standing", "walking-<phase>", "flexed-<phase>", "seated".
+        "standing", "walking-<phase>", "flexed-<phase>", "seated[-low][-lean<deg>]".
     """
     low, high = limits
     base = np.asarray(body.neutral_pose(0.0, 0.0, 0.0), dtype=np.float64)
