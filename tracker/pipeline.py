@@ -1144,9 +1144,10 @@ class Tracker:
         self, pose: np.ndarray, weight: float, dt: float
     ) -> tuple[np.ndarray, float]:
         """Weigh the seated configurations around this frame's floor point under the seated
-        limits; when the best outweighs the estimate by ``seated.margin``, switch to those
-        limits and adopt it (its best candidates join the particles). Only while the person
-        is lower than a standing body of the stature (:meth:`_lower_than_standing`)."""
+        limits; when the best outweighs the estimate by ``seated.margin`` (as it is, or after
+        re-detection's trial filter steps from its best candidates), switch to those limits and
+        adopt it. Only while the person is lower than a standing body of the stature
+        (:meth:`_lower_than_standing`)."""
         sc = self.config.seated
         if self._seated_limits is None or self._seated or not np.all(np.isfinite(self._floor_now)):
             return pose, weight
