@@ -276,7 +276,7 @@ def initial_search(
     cand = configs[ci].copy()
     # A configuration's own root x, y (heading 0) is its offset from the grid position: zero
     # but for the seated ones, whose feet are placed there (body_configurations).
-    ox, oy = cand[:, DOF["root_x"]], cand[:, DOF["root_y"]]
+    ox, oy = cand[:, DOF["root_x"]].copy(), cand[:, DOF["root_y"]].copy()
     cy, sy = np.cos(yaws[hi]), np.sin(yaws[hi])
     cand[:, DOF["root_x"]] = xy[pi, 0] + cy * ox - sy * oy
     cand[:, DOF["root_y"]] = xy[pi, 1] + sy * ox + cy * oy
