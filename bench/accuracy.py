@@ -1018,9 +1018,10 @@ def _cpu_model() -> str:
 
 
 def environment() -> str:
-    """The processor and the numerical libraries' versions. The tracker is chaotic: the same
-    commit, footage and seeds tracked on another processor or with another NumPy or OpenCV
-    build can end far apart (session 22), so runs pair only within one environment."""
+    """The processor and the numerical libraries' versions. The tracker is chaotic (session
+    10: other random draws move single scenes by tens of millimetres), and another processor
+    or NumPy or OpenCV build changes the arithmetic in the last bits (OpenCV dispatches code
+    by processor), so runs pair only within one environment."""
     import numba
 
     return (
