@@ -567,9 +567,13 @@ class SeatedConfig(_Model):
     returns to the profile's limits once its estimate has been within them for
     ``upright_frames`` frames in a row. Nothing changes when the profile already allows sitting
     (``limits_profile = "general"``).
+
+    Off by default (session 22): it switched wrongly on one crouch-gait scene of eight (crouch4,
+    one oblique camera: 180.8 -> 342.5 mm), so the gate needs more pathological gait before it
+    can be on for everyone.
     """
 
-    enabled: bool = True
+    enabled: bool = False
     headings: Annotated[
         int, Field(ge=1, le=72, description="Headings of the seated search over the circle")
     ] = 8
