@@ -194,19 +194,26 @@ def floor_point(cameras: Sequence, masks: Sequence[np.ndarray]) -> np.ndarray | 
     """
     points = []
     for cam, mask in zip(cameras, masks, strict=True):
-        rows = np.flatnonzero(mask.any(axis=1))
-        if rows.size == 0:
-            continue
-        bottom = rows[-1]
-        band = mask[max(0, bottom - 2) : bottom + 1]
-        cols = np.flatnonzero(band.any(axis=0))
-        px = np.array([[float(cols.mean()), float(bottom)]])
-        p = cam.pixel_to_floor(px, 0.0)[0]
-        if np.all(np.isfinite(p)):
-            points.append(p[:2])
+        p = camera_floor_point(cam, mask)
+        if p is not None:
+            points.append(p)
     if not points:
         return None
     return np.median(np.stack(points), axis=0)
+
+
+def camera_floor_point(camera, mask: np.ndarray) -> np.ndarray | None:
+    """One camera's floor point (x, y): the middle of the silhouette's lowest rows
+    back-projected to z = 0; None without a silhouette or when the ray misses the floor."""
+    rows = np.flatnonzero(mask.any(axis=1))
+    if rows.size == 0:
+        return None
+    bottom = rows[-1]
+    band = mask[max(0, bottom - 2) : bottom + 1]
+    cols = np.flatnonzero(band.any(axis=0))
+    px = np.array([[float(cols.mean()), float(bottom)]])
+    p = camera.pixel_to_floor(px, 0.0)[0]
+    return p[:2] if np.all(np.isfinite(p)) else None
 
 
 def initial_search(

@@ -58,7 +58,7 @@ from tracker.body import GIRTH_PARTS
 from tracker.config import TrackerConfig
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, SEATED_DOFS, wrap_angle
 from tracker.filters import Filter, make_filter, select_distinct
-from tracker.init import body_configurations, floor_point, initial_search
+from tracker.init import body_configurations, camera_floor_point, floor_point, initial_search
 from tracker.occlusion import OcclusionLearner, background_regions
 from tracker.origin import search_origin
 from tracker.raster import numba_threads, prefer_passive_openmp
@@ -1191,9 +1191,8 @@ class Tracker:
             if rows.size == 0:
                 continue
             top, bottom = int(rows[0]), int(rows[-1])
-            cols = np.flatnonzero(mask[max(0, bottom - 2) : bottom + 1].any(axis=0))
-            foot = cam.pixel_to_floor(np.array([[float(cols.mean()), float(bottom)]]), 0.0)[0]
-            if not np.all(np.isfinite(foot)):
+            foot = camera_floor_point(cam, mask)
+            if foot is None:
                 continue
             head = np.array([[foot[0], foot[1], self.body.height_m]])
             standing_top = float(np.asarray(cam.project(head))[0, 1])
