@@ -133,3 +133,82 @@ def test_sitting_down_switches_to_the_seated_limits_and_back(clip) -> None:
     err_w = np.linalg.norm(joints_w - truth, axis=2).mean(axis=1)
     print("walking limits only: error while seated", err_w[seated].mean())
     assert err_w[seated].mean() > 2 * err[seated].mean()  # 0.398 m
+
+
+def _tracker(clip, **seated):
+    from tracker.pipeline import Tracker
+
+    body, cams, bgs, _, _ = clip
+    cfg = TrackerConfig.model_validate({"seated": seated})
+    return Tracker(cams, cfg, rng=np.random.default_rng(0), backgrounds=bgs, body=body)
+
+
+def _set_path(tracker, times: np.ndarray, floor: np.ndarray) -> None:
+    """The track's path up to the last time (the current frame's floor point is the last)."""
+    path = zip(times[:-1], floor[:-1], strict=True)
+    tracker._path = [(float(t), 0.0, 0.0, float(f[0]), float(f[1])) for t, f in path]
+    tracker._time_now, tracker._floor_now = float(times[-1]), np.asarray(floor[-1], float)
+
+
+def _staircase(times: np.ndarray, speed: float, step: float) -> np.ndarray:
+    """The nearest foot's floor point of a walker along x: it stands still while in stance and
+    jumps by a step when the other foot lands ahead."""
+    x = step * np.floor(times * speed / step)
+    return np.stack([x, np.full_like(x, 0.3)], axis=1)
+
+
+def test_floor_speed_rides_over_the_feet_alternation(clip) -> None:
+    tracker = _tracker(clip)
+    times = np.arange(0.0, 2.0 + 1e-9, 1 / FPS)
+    for speed, step in [(0.5, 0.3), (1.0, 0.6), (0.4, 0.35)]:
+        for start in (0.0, 0.13, 0.37):  # the window against the steps' phase
+            _set_path(tracker, times, _staircase(times + start, speed, step))
+            v = tracker._floor_speed(1.0)
+            assert 0.5 * speed < v < 2.5 * speed, (speed, step, start, v)
+    # standing still: 2 cm of noise and one frame's floor point 2 m off
+    rng = np.random.default_rng(3)
+    still = np.array([1.0, 0.5]) + rng.normal(0, 0.02, (times.size, 2))
+    still[-8] += [2.0, 0.0]
+    _set_path(tracker, times, still)
+    assert tracker._floor_speed(1.0) < 0.1
+    # frames without a floor point are left out
+    still[-5:-2] = np.nan
+    _set_path(tracker, times, still)
+    assert tracker._floor_speed(1.0) < 0.1
+    # a path shorter than half the window says nothing
+    _set_path(tracker, times[:8], still[:8])
+    assert tracker._floor_speed(1.0) is None
+    tracker._path = []
+    assert tracker._floor_speed(1.0) is None
+
+
+def test_seated_search_waits_for_the_person_to_stand_still(clip, monkeypatch) -> None:
+    """A short silhouette that walks (crouch gait, legs behind furniture) is not someone sitting
+    down: the seated search does not run until the floor point stands still."""
+    tracker = _tracker(clip)
+    searched = []
+
+    def search(*args, **kwargs):
+        searched.append(True)
+        return None
+
+    monkeypatch.setattr(tracker, "_lower_than_standing", lambda fraction: True)
+    monkeypatch.setattr(tracker, "_reduced_search", search)
+    pose = tracker.body.neutral_pose(1.0, 0.0, 0.0)
+    times = np.arange(0.0, 1.5 + 1e-9, 1 / FPS)
+    _set_path(tracker, times, _staircase(times, 0.6, 0.35))  # crouch gait's speed
+    out, w = tracker._seated_search(pose, 0.5, 1 / FPS)
+    assert not searched and out is pose and w == 0.5
+    _set_path(tracker, times[:3], np.full((3, 2), 1.0))  # the track's first frames
+    tracker._seated_search(pose, 0.5, 1 / FPS)
+    assert not searched
+    _set_path(tracker, times, np.full((times.size, 2), 1.0))  # standing still
+    tracker._seated_search(pose, 0.5, 1 / FPS)
+    assert searched == [True]
+    # with the gate's speed raised, the walker is searched too
+    tracker = _tracker(clip, max_floor_speed_m_s=5.0)
+    monkeypatch.setattr(tracker, "_lower_than_standing", lambda fraction: True)
+    monkeypatch.setattr(tracker, "_reduced_search", search)
+    _set_path(tracker, times, _staircase(times, 0.6, 0.35))
+    tracker._seated_search(pose, 0.5, 1 / FPS)
+    assert searched == [True, True]

@@ -568,12 +568,16 @@ class SeatedConfig(_Model):
     ``upright_frames`` frames in a row. Nothing changes when the profile already allows sitting
     (``limits_profile = "general"``).
 
-    Off by default (session 22): it switched wrongly on one crouch-gait scene of eight (crouch4,
-    one oblique camera: 180.8 -> 342.5 mm), so the gate needs more pathological gait before it
-    can be on for everyone.
+    People sit down standing still, so the search also waits until the silhouettes' floor point
+    has moved slower than ``max_floor_speed_m_s`` over the last ``speed_window_s`` (medians of
+    the window's first and last thirds, which ride over the feet's alternation as the nearest;
+    not before the track's path covers half the window). On the benchmark's footage where the
+    height gate opened (session 23), CMU 75_19 sitting down measured 0-0.08 m/s, crouch gait
+    0.49-1.14 m/s. Without it (session 22) the mode switched wrongly on a crouch-gait scene
+    (crouch4, one oblique camera: 180.8 -> 342.5 mm), in the track's second frame.
     """
 
-    enabled: bool = False
+    enabled: bool = True
     headings: Annotated[
         int, Field(ge=1, le=72, description="Headings of the seated search over the circle")
     ] = 8
@@ -597,6 +601,18 @@ class SeatedConfig(_Model):
         int,
         Field(ge=1, le=1000, description="Frames within the profile's limits before returning"),
     ] = 3
+    max_floor_speed_m_s: Annotated[
+        float,
+        Field(
+            ge=0,
+            description="Search only while the silhouettes' floor point moves slower than this "
+            "(m/s, over the last speed_window_s; people sit down standing still)",
+        ),
+    ] = 0.25
+    speed_window_s: Annotated[
+        float,
+        Field(gt=0, le=10, description="Time over which the floor point's speed is measured"),
+    ] = 1.0
 
 
 class HeadingCheckConfig(_Model):

@@ -414,6 +414,7 @@ class Tracker:
         # (time, x, y of the estimate, x, y of the silhouettes' floor point) of recent frames
         self._path: list[tuple[float, float, float, float, float]] = []
         self._floor_now = np.full(2, np.nan)
+        self._time_now = np.nan
         self._heading_checked_until = -np.inf
         #: The opposite heading hypothesis after an initialisation (init.both_headings).
         self._alt: _Hypothesis | None = None
@@ -582,6 +583,7 @@ class Tracker:
         self._masks = masks
         fp = floor_point(self.lik_cameras, masks)
         self._floor_now = np.full(2, np.nan) if fp is None else np.asarray(fp, dtype=np.float64)
+        self._time_now = float(time_s)
         dt = self._dt(time_s)
         if self.need_init:
             status = "initialised" if self.prev_time is None else "reinitialised"
@@ -1147,11 +1149,17 @@ class Tracker:
         limits; when the best outweighs the estimate by ``seated.margin`` (as it is, or after
         re-detection's trial filter steps from its best candidates), switch to those limits and
         adopt it. Only while the person is lower than a standing body of the stature
-        (:meth:`_lower_than_standing`)."""
+        (:meth:`_lower_than_standing`) and stands still: the silhouettes' floor point moves
+        slower than ``seated.max_floor_speed_m_s`` (:meth:`_floor_speed`; not before the track
+        has a path long enough to tell)."""
         sc = self.config.seated
         if self._seated_limits is None or self._seated or not np.all(np.isfinite(self._floor_now)):
             return pose, weight
         if not self._lower_than_standing(sc.lower_fraction):
+            return pose, weight
+        speed = self._floor_speed(sc.speed_window_s)
+        if speed is None or speed > sc.max_floor_speed_m_s:
+            log.debug("seated search skipped: the floor point's speed is %s m/s", speed)
             return pose, weight
         headings = pose[DOF["root_yaw"]] + np.arange(sc.headings) * (2 * np.pi / sc.headings)
         res = self._reduced_search(headings, dt, self.threads, seated=True)
@@ -1203,6 +1211,33 @@ class Tracker:
             if bottom - top >= (1.0 - fraction) * expected:
                 return False
         return seen > 0
+
+    def _floor_speed(self, window_s: float) -> float | None:
+        """Speed (m/s) of the silhouettes' floor point over the last ``window_s`` seconds: the
+        distance between the medians of the window's first and last thirds over the time between
+        them (the medians ride over the feet's alternation as the nearest one). None while the
+        track's continuous path covers less than half the window."""
+        now = self._time_now
+        pts = [
+            (t, fx, fy)
+            for t, _x, _y, fx, fy in self._path
+            if t >= now - window_s and np.isfinite(fx) and np.isfinite(fy)
+        ]
+        if np.all(np.isfinite(self._floor_now)):
+            pts.append((now, *self._floor_now))
+        if len(pts) < 3:
+            return None
+        a = np.asarray(pts, dtype=np.float64)
+        span = a[-1, 0] - a[0, 0]
+        if span < 0.5 * window_s:
+            return None
+        early = a[a[:, 0] <= a[0, 0] + span / 3]
+        late = a[a[:, 0] >= a[-1, 0] - span / 3]
+        elapsed = float(np.median(late[:, 0]) - np.median(early[:, 0]))
+        if elapsed <= 0:
+            return None
+        d = np.median(late[:, 1:], axis=0) - np.median(early[:, 1:], axis=0)
+        return float(np.hypot(*d) / elapsed)
 
     def _update_seated(self, pose: np.ndarray) -> None:
         """Back to the profile's limits once the estimate has been within them (on the DOFs
