@@ -17,7 +17,14 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from gait.balance import centre_of_mass, extrapolated_com, margins_at
-from gait.bouts import BoutSettings, activity_segments, group_bouts, posture_labels, standing_height
+from gait.bouts import (
+    BoutSettings,
+    activity_segments,
+    group_bouts,
+    posture_labels,
+    seated_frames,
+    standing_height,
+)
 from gait.events import EventSettings, GaitEvent, detect_events
 from gait.falls import FallSettings, detect_falls
 from gait.filtering import Prepared, prepare, quiet_nanmean
@@ -59,6 +66,20 @@ class GaitConfig(BaseModel):
     hs_velocity_fraction: float = Field(0.4, ge=0, lt=1, description="heel-strike refinement")
     long_lie_s: float = Field(60.0, gt=0, description="time on the floor that is a long lie, s")
     include_curves: bool = Field(True, description="mean hip/knee curves in the summaries")
+
+
+#: A stride is left out when the person sat (or lay) in more than this fraction of its frames.
+SEATED_STRIDE_FRACTION = 0.5
+
+
+def _during(mask: np.ndarray, f0: float, f1: float, fraction: float = 0.0) -> bool:
+    """Whether more than ``fraction`` of the frames ``f0..f1`` (fractional indices, rounded)
+    are set in ``mask`` (with ``fraction`` 0: any of them)."""
+    if not (np.isfinite(f0) and np.isfinite(f1)) or mask.size == 0:
+        return False
+    a = int(np.clip(round(min(f0, f1)), 0, mask.size - 1))
+    b = int(np.clip(round(max(f0, f1)), 0, mask.size - 1))
+    return bool(mask[a : b + 1].mean() > fraction)
 
 
 def _nanmean(x: Sequence[float]) -> float:
@@ -194,10 +215,15 @@ def analyse(
 
     forward, _ = heading(prep.positions, prep.fps)
     head_rad = heading_angle(forward)
+    bset = BoutSettings(min_strides=cfg.min_strides, max_turn_deg=cfg.max_turn_deg)
+    h_stand = standing_height(prep)
+    # Seated or lying (sacrum low): feet that move there are not walking.
+    seated = seated_frames(prep, h_stand, bset)
     if events is None:
         evs = detect_events(
             prep, forward, EventSettings(hs_velocity_fraction=cfg.hs_velocity_fraction)
         )
+        evs = [e for e in evs if not _during(seated, e.frame, e.frame)]
     else:
         evs = [
             e
@@ -216,7 +242,7 @@ def analyse(
     strides = compute_strides(
         prep, evs, forward, head_rad, StrideSettings(treadmill_speed_m_s=cfg.treadmill_speed_m_s)
     )
-    bset = BoutSettings(min_strides=cfg.min_strides, max_turn_deg=cfg.max_turn_deg)
+    strides = [s for s in strides if not _during(seated, s.f0, s.f1, SEATED_STRIDE_FRACTION)]
     groups = group_bouts(strides, bset)
     bout_of = {id(s): b for b, g in enumerate(groups) for s in g}
 
@@ -285,7 +311,6 @@ def analyse(
         balance=_balance_summary(bout_strides, mos),
     )
 
-    h_stand = standing_height(prep)
     tset = TransferSettings()
     transfers = detect_transfers(prep.positions, prep.times, prep.fps, h_stand, tset)
     labels = posture_labels(prep, spans, h_stand, bset, [(t.start_s, t.end_s) for t in transfers])

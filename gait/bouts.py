@@ -94,6 +94,13 @@ def group_bouts(strides: Sequence[StrideCalc], settings: BoutSettings) -> list[l
     return bouts
 
 
+def seated_frames(prep: Prepared, stand_height: float, settings: BoutSettings) -> np.ndarray:
+    """Frames (N,) whose sacrum is below ``sitting_height_fraction`` of the standing height:
+    seated, or lying. Either way nobody walks there."""
+    with np.errstate(invalid="ignore"):
+        return prep.positions[:, SACRUM, 2] < settings.sitting_height_fraction * stand_height
+
+
 def posture_labels(
     prep: Prepared,
     bout_spans: Sequence[tuple[float, float]],
@@ -114,7 +121,7 @@ def posture_labels(
         sac = pos[:, SACRUM, 2]
         head = pos[:, HEAD, 2]
         lying = (tilt > settings.lying_trunk_deg) | (head < settings.lying_head_height_m)
-        sitting = ~lying & (sac < settings.sitting_height_fraction * stand_height)
+        sitting = ~lying & seated_frames(prep, stand_height, settings)
         upright = ~lying & ~sitting & np.isfinite(sac)
     fwd = body_forward(pos)
     ang = heading_angle(fwd)

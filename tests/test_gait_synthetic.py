@@ -235,6 +235,41 @@ def test_sit_to_stand_and_stand_to_sit() -> None:
     assert rep.falls == []
 
 
+def _seated_leg_swings(fps: float = 20.0, seconds: float = 8.0) -> Trajectory:
+    """Seated on a chair, both feet swinging forward and back by 0.2 m (in antiphase, 1.1 s
+    a cycle) and lifting 5 cm: what a tracker whose legs slip makes of someone seated."""
+    t = np.arange(0.0, seconds, 1.0 / fps)
+    pos = np.repeat(sitting_pose()[None], t.size, axis=0)
+    for k, side in enumerate(("left", "right")):
+        ph = 2 * np.pi * (t / 1.1 + 0.5 * k)
+        for part in ("ankle", "heel", "toe"):
+            i = KP[f"{side}_{part}"]
+            pos[:, i, 0] += 0.2 * np.sin(ph)
+            pos[:, i, 2] += 0.05 * np.clip(np.cos(ph), 0.0, None)
+    return Trajectory(positions=pos, times=t, fps=fps, source="seated leg swings")
+
+
+def test_no_steps_while_seated(monkeypatch) -> None:
+    import gait.analysis as ga
+
+    traj = _seated_leg_swings()
+    rep = analyse(traj)
+    assert rep.events == [] and rep.strides == []
+    assert [a.type for a in rep.activities] == ["sitting"]
+    # the same feet with the seated frames not recognised give heel strikes and strides
+    monkeypatch.setattr(ga, "seated_frames", lambda prep, h, s: np.zeros(prep.n, dtype=bool))
+    rep = analyse(traj)
+    assert len(rep.events) >= 10 and len(rep.strides) >= 5
+    # and the walk's strides are unchanged by it
+    walk = synthetic_walk(speed_m_s=1.0, cadence_steps_min=100, n_strides=5, fps=20.0)
+    monkeypatch.undo()
+    a = analyse(walk)
+    monkeypatch.setattr(ga, "seated_frames", lambda prep, h, s: np.zeros(prep.n, dtype=bool))
+    b = analyse(walk)
+    assert len(a.strides) == len(b.strides) >= 6
+    assert [s.start_s for s in a.strides] == [s.start_s for s in b.strides]
+
+
 def test_tug_like_sequence_is_timed() -> None:
     si, st = sitting_pose(), standing_pose()
     far = standing_pose(xy=(3.0, 0.0))
