@@ -30,9 +30,10 @@ def test_seated_limits_widen_only_the_seated_dofs() -> None:
         np.testing.assert_array_equal(a, b)
 
 
-def _sit_down_poses(body: BodyModel) -> np.ndarray:
+def _sit_down_poses(body: BodyModel, schedule: list[tuple[float, str]] | None = None) -> np.ndarray:
     """Standing 0.5 s, sitting down over 1 s (hips 90, knees 105 deg, trunk leaning 30 deg
-    then 10), seated 1 s, standing up over 1 s, standing 0.5 s: (81, 31) poses at 20 Hz."""
+    then 10), seated 1 s, standing up over 1 s, standing 0.5 s: (81, 31) poses at 20 Hz; or
+    the key poses ("stand", "lean", "seated") at the times of ``schedule``."""
     stand = body.neutral_pose(1.0, 0.0, 0.6)
     seated = stand.copy()
     for side in ("l", "r"):
@@ -48,9 +49,12 @@ def _sit_down_poses(body: BodyModel) -> np.ndarray:
     seated[2] -= j1[feet, 2].min() - j0[feet, 2].min()
     lean = 0.5 * (stand + seated)
     lean[DOF["trunk_flexion"]] = np.radians(30.0)
-    keys = [(0.0, stand), (0.5, stand), (1.0, lean), (1.5, seated), (2.5, seated)]
-    keys += [(3.0, lean), (3.5, stand), (4.0, stand)]
-    times = np.arange(0.0, 4.0 + 1e-9, 1.0 / FPS)
+    named = {"stand": stand, "lean": lean, "seated": seated}
+    if schedule is None:
+        schedule = [(0.0, "stand"), (0.5, "stand"), (1.0, "lean"), (1.5, "seated")]
+        schedule += [(2.5, "seated"), (3.0, "lean"), (3.5, "stand"), (4.0, "stand")]
+    keys = [(t, named[name]) for t, name in schedule]
+    times = np.arange(0.0, keys[-1][0] + 1e-9, 1.0 / FPS)
     kt = np.array([k[0] for k in keys])
     kp = np.stack([k[1] for k in keys])
     i = np.clip(np.searchsorted(kt, times, side="right") - 1, 0, len(kt) - 2)
@@ -58,13 +62,13 @@ def _sit_down_poses(body: BodyModel) -> np.ndarray:
     return (1 - w)[:, None] * kp[i] + w[:, None] * kp[i + 1]
 
 
-def _sit_down_clip():
+def _sit_down_clip(schedule: list[tuple[float, str]] | None = None):
     """:func:`_sit_down_poses` of the tracker's own body, seen by two cameras at 320x240."""
     from tracker.likelihood import SilhouetteLikelihood
     from tracker.synthetic import render_clip, side_cameras, textured_background
 
     body = BodyModel(1.70)
-    poses = _sit_down_poses(body)
+    poses = _sit_down_poses(body, schedule)
     rng = np.random.default_rng(5)
     cams = side_cameras(2, image_size=(320, 240), centre=(1.0, 0.0), fps=FPS)
     bgs = [textured_background(320, 240, rng) for _ in cams]
@@ -133,6 +137,22 @@ def test_sitting_down_switches_to_the_seated_limits_and_back(clip) -> None:
     err_w = np.linalg.norm(joints_w - truth, axis=2).mean(axis=1)
     print("walking limits only: error while seated", err_w[seated].mean())
     assert err_w[seated].mean() > 2 * err[seated].mean()  # 0.398 m
+
+
+def test_someone_seated_from_the_first_frame_is_found_seated() -> None:
+    """A track that starts on a seated person (under the walking limits the initial search
+    has no seated configuration) switches once the floor point's speed is known."""
+    clip = _sit_down_clip([(0.0, "seated"), (2.5, "seated"), (3.0, "lean"), (3.5, "stand")])
+    joints, modes, truth = _track(clip, True)
+    seated = slice(20, 50)  # 1.0-2.5 s
+    print("mode", modes.astype(int))
+    assert not modes[:5].any()  # the speed is not known in the track's first frames
+    assert modes[seated].all()
+    assert not modes[-2:].any()
+    err = np.linalg.norm(joints - truth, axis=2).mean(axis=1)
+    print("error while seated", err[seated].mean())
+    assert np.abs(joints[seated, SACRUM, 2] - truth[seated, SACRUM, 2]).max() < 0.1
+    assert err[seated].mean() < 0.12
 
 
 def _tracker(clip, **seated):
