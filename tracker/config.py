@@ -573,8 +573,9 @@ class SeatedConfig(_Model):
     the window's first and last thirds, which ride over the feet's alternation as the nearest;
     not before the track's path covers half the window). On the benchmark's footage where the
     height gate opened (session 23), CMU 75_19 sitting down measured 0-0.08 m/s, crouch gait
-    0.49-1.14 m/s. Without it (session 22) the mode switched wrongly on a crouch-gait scene
-    (crouch4, one oblique camera: 180.8 -> 342.5 mm), in the track's second frame.
+    0.49-1.14 m/s, a walk behind a sofa 1.06-1.14 m/s. Without it (session 22) the mode
+    switched wrongly on a crouch-gait scene (crouch4, one oblique camera: 180.8 -> 342.5 mm), in
+    the track's second frame.
     """
 
     enabled: bool = True
