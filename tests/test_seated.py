@@ -164,9 +164,12 @@ def _tracker(clip, **seated):
 
 
 def _set_path(tracker, times: np.ndarray, floor: np.ndarray) -> None:
-    """The track's path up to the last time (the current frame's floor point is the last)."""
-    path = zip(times[:-1], floor[:-1], strict=True)
-    tracker._path = [(float(t), 0.0, 0.0, float(f[0]), float(f[1])) for t, f in path]
+    """The silhouettes' floor points up to the last time (the current frame); NaN rows are
+    frames without one."""
+    ok = np.isfinite(floor).all(axis=1)
+    tracker._floor_hist = [
+        (float(t), float(f[0]), float(f[1])) for t, f in zip(times[ok], floor[ok], strict=True)
+    ]
     tracker._time_now, tracker._floor_now = float(times[-1]), np.asarray(floor[-1], float)
 
 
@@ -195,10 +198,16 @@ def test_floor_speed_rides_over_the_feet_alternation(clip) -> None:
     still[-5:-2] = np.nan
     _set_path(tracker, times, still)
     assert tracker._floor_speed(1.0) < 0.1
-    # a path shorter than half the window says nothing
+    # a re-initialised estimate does not reset the silhouettes' floor points
+    tracker._path = []
+    assert tracker._floor_speed(1.0) < 0.1
+    # nobody in view: they are forgotten
+    tracker._no_pose(40, 2.0, "nobody in view")
+    assert tracker._floor_hist == [] and tracker._floor_speed(1.0) is None
+    # a history shorter than half the window says nothing
     _set_path(tracker, times[:8], still[:8])
     assert tracker._floor_speed(1.0) is None
-    tracker._path = []
+    tracker._floor_hist = []
     assert tracker._floor_speed(1.0) is None
 
 

@@ -66,6 +66,8 @@ from tracker.segmentation import Segmentation, Segmenter, downscale_mask, keep_b
 from tracker.smoothing import RESTART_STATUSES
 
 log = logging.getLogger(__name__)
+#: Seconds of the silhouettes' floor points kept (the seated mode's speed window is shorter).
+FLOOR_HISTORY_S = 10.0
 #: Indices of the DOFs the seated mode widens (tracker.dof.SEATED_DOFS).
 _SEATED_IDX = np.array([DOF[n] for n in SEATED_DOFS])
 
@@ -415,6 +417,9 @@ class Tracker:
         self._path: list[tuple[float, float, float, float, float]] = []
         self._floor_now = np.full(2, np.nan)
         self._time_now = np.nan
+        #: (time, x, y) of the silhouettes' floor point over the last seconds: a measurement,
+        #: kept across re-initialisations of the estimate, cleared when nobody is in view.
+        self._floor_hist: list[tuple[float, float, float]] = []
         self._heading_checked_until = -np.inf
         #: The opposite heading hypothesis after an initialisation (init.both_headings).
         self._alt: _Hypothesis | None = None
@@ -584,6 +589,10 @@ class Tracker:
         fp = floor_point(self.lik_cameras, masks)
         self._floor_now = np.full(2, np.nan) if fp is None else np.asarray(fp, dtype=np.float64)
         self._time_now = float(time_s)
+        t = float(time_s)
+        self._floor_hist = [e for e in self._floor_hist if t - FLOOR_HISTORY_S < e[0] < t]
+        if fp is not None:
+            self._floor_hist.append((t, float(fp[0]), float(fp[1])))
         dt = self._dt(time_s)
         if self.need_init:
             status = "initialised" if self.prev_time is None else "reinitialised"
@@ -713,6 +722,7 @@ class Tracker:
         b._estimate_girth = b._estimate_parts = b._estimate_legs = False
         b._alt = None
         b._path = []
+        b._floor_hist = []  # mirrored time
         b._heading_checked_until = -np.inf
         b._time_sign = -self._time_sign
         b.velocity_xy = -self.velocity_xy
@@ -1216,15 +1226,10 @@ class Tracker:
         """Speed (m/s) of the silhouettes' floor point over the last ``window_s`` seconds: the
         distance between the medians of the window's first and last thirds over the time between
         them (the medians ride over the feet's alternation as the nearest one). None while the
-        track's continuous path covers less than half the window."""
+        floor points known since someone came into view cover less than half the window (a
+        re-initialised estimate does not reset them: they are of the silhouettes)."""
         now = self._time_now
-        pts = [
-            (t, fx, fy)
-            for t, _x, _y, fx, fy in self._path
-            if t >= now - window_s and np.isfinite(fx) and np.isfinite(fy)
-        ]
-        if np.all(np.isfinite(self._floor_now)):
-            pts.append((now, *self._floor_now))
+        pts = [e for e in self._floor_hist if e[0] >= now - window_s]
         if len(pts) < 3:
             return None
         a = np.asarray(pts, dtype=np.float64)
@@ -1752,6 +1757,7 @@ class Tracker:
         self.velocity_xy = np.zeros(2)
         self.low_count = 0
         self._path = []
+        self._floor_hist = []
         log.debug("frame %d: no pose (%s)", frame_index, reason)
         return FrameResult(
             frame_index=int(frame_index),
