@@ -571,7 +571,8 @@ class SeatedConfig(_Model):
     People sit down standing still, so the search also waits until the silhouettes' floor point
     has moved slower than ``max_floor_speed_m_s`` over the last ``speed_window_s`` (medians of
     the window's first and last thirds, which ride over the feet's alternation as the nearest;
-    not before the track's path covers half the window). On the benchmark's footage where the
+    the silhouettes' own floor points, kept across re-initialisations of the estimate, not
+    before they cover half the window). On the benchmark's footage where the
     height gate opened (session 23), CMU 75_19 sitting down measured 0-0.08 m/s, crouch gait
     0.49-1.14 m/s, a walk behind a sofa 1.06-1.14 m/s. Without it (session 22) the mode
     switched wrongly on a crouch-gait scene (crouch4, one oblique camera: 180.8 -> 342.5 mm), in
