@@ -53,7 +53,8 @@ colour cue then has little to hold.
 
 View specs: ``side``, ``oblique``, ``frontal``, several joined by ``+`` (one camera each, e.g.
 ``side+frontal``), optionally ``@table`` or ``@sofa`` for an occluder in front of the first
-camera (``oblique@table``), then optionally ``:hHEIGHT`` for cameras HEIGHT metres above the
+camera (``oblique@table``) or ``@chair`` for a chair where the person sits (75_19), then
+optionally ``:hHEIGHT`` for cameras HEIGHT metres above the
 floor and ``:fFOV`` for a horizontal field of view of FOV degrees (defaults 2.3 m and 70 deg;
 ``oblique:h1.2``, ``side+frontal:h2.55:f100``). The targets are checked on the default placement
 only; other placements measure how the tracker generalises to other rooms::
@@ -236,8 +237,8 @@ class ViewSpec:
         if not views or bad:
             raise ValueError(f"view spec {text!r}: views must be among {', '.join(VIEWS)}")
         occ = occ.strip() or "none"
-        if occ not in ("none", "table", "sofa"):
-            raise ValueError(f"view spec {text!r}: occluder must be table or sofa")
+        if occ not in ("none", "table", "sofa", "chair"):
+            raise ValueError(f"view spec {text!r}: furniture must be table, sofa or chair")
         found: dict[str, float] = {}
         for opt in options:
             opt = opt.strip()

@@ -30,6 +30,7 @@ def accuracy():
         ("oblique:h1.2", ("oblique",), "none", 1.2, None, False),
         ("side+frontal@sofa:h2.55:f100", ("side", "frontal"), "sofa", 2.55, 100.0, False),
         ("oblique:f90:h1.5", ("oblique",), "none", 1.5, 90.0, False),
+        ("oblique@chair", ("oblique",), "chair", None, None, True),
     ],
 )
 def test_view_spec_parses_and_round_trips(accuracy, text, views, occluder, height, fov, default):
@@ -43,7 +44,7 @@ def test_view_spec_parses_and_round_trips(accuracy, text, views, occluder, heigh
     ("text", "match"),
     [
         ("top", "views must be among"),
-        ("oblique@bed", "occluder must be"),
+        ("oblique@bed", "furniture must be"),
         ("oblique:x1", "not a camera height"),
         ("oblique:h", "not a camera height"),
         ("oblique:h1:h2", "not a camera height"),

@@ -23,6 +23,7 @@ from gaitwatch.conventions import (
     NECK,
     R_ANKLE,
     R_HEEL,
+    R_HIP,
     R_TOE,
 )
 from gaitwatch.sim.advise import advise, format_advice, measurable_floor, pose_errors
@@ -36,7 +37,7 @@ from gaitwatch.sim.motion import (
 )
 from gaitwatch.sim.render import rasterize
 from gaitwatch.sim.scene import SceneConfig
-from gaitwatch.sim.synth import build_scene, render_frames
+from gaitwatch.sim.synth import build_scene, occluder_mask, render_frames
 from gaitwatch.trajectory import Trajectory, read_joints_csv
 from service.cli import main
 from tests.conftest import shared_file
@@ -368,6 +369,46 @@ def test_occluder_hides_the_legs(short_walk: Trajectory) -> None:
     assert feet_free > 0.9 and head_free > 0.9
     assert feet_sofa < 0.5 * feet_free
     assert head_sofa > 0.9
+
+
+def _sittings(places: list[tuple[float, float]], heading_deg: float = 90.0) -> Trajectory:
+    """Standing, sitting down at each place in turn (2 s seated), standing up; 20 Hz."""
+    from gait.synthetic import sitting_pose, standing_pose, synthetic_pose_sequence
+
+    keys: list[tuple[float, np.ndarray]] = []
+    t = 0.0
+    for xy in places:
+        st, si = standing_pose(xy, heading_deg), sitting_pose(xy, heading_deg)
+        keys += [(t, st), (t + 0.5, st), (t + 1.5, si), (t + 3.5, si), (t + 4.5, st)]
+        t += 5.0
+    return synthetic_pose_sequence(keys, fps=20.0)
+
+
+def test_a_chair_where_the_person_sits(caplog) -> None:
+    from gait.synthetic import sitting_pose
+
+    cfg = {"views": ["oblique"], "image_size": (320, 240), "fps": 10.0}
+    room = {"occluder": "chair"}
+    sc = build_scene(_sittings([(0.5, 0.2)]), SceneConfig(**cfg, room=room))
+    seat, back = sc.room.furniture
+    hips = 0.5 * (sitting_pose((0.5, 0.2), 90.0)[L_HIP] + sitting_pose((0.5, 0.2), 90.0)[R_HIP])
+    assert np.hypot(seat.centre[0] - hips[0], seat.centre[1] - hips[1]) < 0.02
+    assert seat.size[2] == pytest.approx(hips[2] - 0.09, abs=0.01)  # the seat under the thighs
+    # the back behind the person (who faces +y), above the seat
+    assert back.centre[1] < seat.centre[1] - 0.1 and back.size[2] > seat.size[2] + 0.3
+    assert math.isclose(math.sin(seat.yaw), 1.0, abs_tol=0.05)
+    # the person's seated thighs are drawn over the seat: the chair is in the background image
+    # and in the occluder mask, as a real chair would be
+    assert occluder_mask(sc, 0) is not None and occluder_mask(sc, 0).any()
+    # two sittings at one place share a chair; at two places each has one
+    sc = build_scene(_sittings([(0.5, 0.2), (0.6, 0.25)]), SceneConfig(**cfg, room=room))
+    assert len(sc.room.furniture) == 2
+    sc = build_scene(_sittings([(0.5, 0.2), (2.0, 0.2)]), SceneConfig(**cfg, room=room))
+    assert len(sc.room.furniture) == 4
+    # nobody sits in a walk: no chair, and a warning says so
+    with caplog.at_level("WARNING"):
+        sc = build_scene(procedural_walk(distance_m=2.0, fps=20), SceneConfig(**cfg, room=room))
+    assert sc.room.furniture == [] and "no chair" in caplog.text
 
 
 def test_occluder_mask_written_where_the_furniture_is(tmp_path: Path) -> None:

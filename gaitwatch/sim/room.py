@@ -90,11 +90,19 @@ class Box:
         return np.linalg.norm(np.maximum(q, 0), axis=1)
 
 
-def furniture(kind: str, centre_xy: np.ndarray, yaw: float, rng: np.random.Generator) -> list[Box]:
+def furniture(
+    kind: str,
+    centre_xy: np.ndarray,
+    yaw: float,
+    rng: np.random.Generator,
+    seat_height_m: float = 0.45,
+) -> list[Box]:
     """Boxes of a piece of furniture; its long side along the yaw direction's perpendicular.
 
     ``yaw`` is the direction the front faces (towards the camera); a sofa's back is on the far
-    side, so from the camera one sees its seat and back, which hide the legs behind it.
+    side, so from the camera one sees its seat and back, which hide the legs behind it. A chair
+    (``centre_xy`` the seat's centre, ``yaw`` the way a seated person faces) is a closed seat
+    block ``seat_height_m`` high, 0.44 m square, with a back 0.45 m above the seat.
     """
     fabrics = [(0.35, 0.36, 0.40), (0.25, 0.32, 0.45), (0.40, 0.30, 0.22), (0.30, 0.40, 0.30)]
     c = np.asarray(centre_xy, float)
@@ -120,6 +128,13 @@ def furniture(kind: str, centre_xy: np.ndarray, yaw: float, rng: np.random.Gener
         # a closed sideboard-like apron under the near edge keeps it a real occluder
         apron = c + 0.38 * f
         boxes.append(Box((*apron, 0.42), (0.03, 1.3, 0.30), yaw, wood))
+    elif kind == "chair":
+        wood = [(0.45, 0.30, 0.18), (0.30, 0.22, 0.15), (0.55, 0.45, 0.32)]
+        col = wood[int(rng.integers(len(wood)))]
+        boxes.append(Box((*c, 0.0), (0.44, 0.44, seat_height_m), yaw, col))
+        back = c - 0.2 * f
+        size = (0.04, 0.44, seat_height_m + 0.45)
+        boxes.append(Box((*back, 0.0), size, yaw, tuple(0.9 * x for x in col)))
     elif kind != "none":
         raise ValueError(f"unknown furniture {kind!r}")
     return boxes

@@ -108,8 +108,11 @@ class Room(_Model):
     height_m: Annotated[float, Field(gt=2.0, le=5.0)] = 2.6
     margin_m: Annotated[float, Field(ge=0.5, le=10, description="Floor beyond the walk")] = 1.5
     occluder: Annotated[
-        Literal["none", "table", "sofa"],
-        Field(description="Furniture between the first camera and the walk, hiding the legs"),
+        Literal["none", "table", "sofa", "chair"],
+        Field(
+            description="Furniture: a table or sofa between the first camera and the walk, "
+            "hiding the legs; or a chair under each place where the person sits"
+        ),
     ] = "none"
 
 

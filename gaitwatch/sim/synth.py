@@ -207,6 +207,47 @@ def _place_occluder(
     return []
 
 
+#: Sitting, for the chairs: the sacrum below this fraction of its standing height (its 90th
+#: percentile over the recording; gait.bouts' sitting threshold) ...
+SEATED_FRACTION = 0.7
+#: ... for at least this long (s).
+SEATED_MIN_S = 0.5
+#: The hip centres' height over the seat of someone seated (m).
+HIP_OVER_SEAT_M = 0.09
+
+
+def _place_chairs(truth: Trajectory, rng: np.random.Generator) -> list[Box]:
+    """A chair under each place where the person sits: the seat's centre under the hip
+    centres, its top a little below them (the buttocks' flesh, ``HIP_OVER_SEAT_M``), facing
+    the way the person faces; sittings within 0.3 m of each other share a chair."""
+    pos = truth.positions
+    sac = pos[:, SACRUM, 2]
+    if not np.isfinite(sac).any():
+        return []
+    low = sac < SEATED_FRACTION * np.nanpercentile(sac, 90)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], low.astype(int), [0]])))
+    boxes: list[Box] = []
+    placed: list[np.ndarray] = []
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
+        if (b - a) / truth.fps < SEATED_MIN_S:
+            continue
+        hips = 0.5 * (pos[a:b, L_HIP] + pos[a:b, R_HIP])
+        across = np.nanmedian(pos[a:b, L_HIP, :2] - pos[a:b, R_HIP, :2], 0)
+        if not (np.isfinite(hips).any() and np.isfinite(across).all()):
+            continue
+        forward = np.array([across[1], -across[0]]) / max(float(np.linalg.norm(across)), 1e-9)
+        centre = np.nanmedian(hips[:, :2], axis=0)
+        if any(np.linalg.norm(centre - q) < 0.3 for q in placed):
+            continue
+        seat = float(np.clip(np.nanmedian(hips[:, 2]) - HIP_OVER_SEAT_M, 0.2, 0.6))
+        yaw = math.atan2(forward[1], forward[0])
+        boxes += furniture("chair", centre, yaw, rng, seat_height_m=seat)
+        placed.append(centre)
+    if not boxes:
+        log.warning("nobody sits in this motion; no chair placed")
+    return boxes
+
+
 def build_scene(
     motion: Trajectory,
     config: SceneConfig,
@@ -280,7 +321,9 @@ def build_scene(
         rng=r_room,
         floor_kind=kind,
     )
-    if config.room.occluder != "none":
+    if config.room.occluder == "chair":
+        room.furniture = _place_chairs(truth, r_furn)
+    elif config.room.occluder != "none":
         room.furniture = _place_occluder(config.room.occluder, cams[0], truth, r_furn)
     backdrops = [render_backdrop(room, c) for c in cams]
     gain, lamp_on = _lighting(config, len(truth), r_light)

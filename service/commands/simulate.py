@@ -51,7 +51,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--pattern", choices=("random", "plain", "stripes", "checks"), default="random",
         help="shirt pattern",
     )  # fmt: skip
-    p.add_argument("--occluder", choices=("none", "table", "sofa"), default="none")
+    p.add_argument(
+        "--occluder",
+        choices=("none", "table", "sofa", "chair"),
+        default="none",
+        help="a table or sofa between the first camera and the walk, or a chair under each "
+        "place where the person sits",
+    )
     p.add_argument("--lighting", choices=("steady", "drift", "switch"), default="drift")
     p.add_argument("--noise", type=float, default=2.0, help="sensor noise sigma (8-bit units)")
     p.add_argument("--jpeg", type=int, metavar="Q", help="JPEG-compress every frame at quality Q")
