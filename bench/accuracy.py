@@ -139,8 +139,9 @@ RECORDINGS: dict[str, Recording] = {
     "crouch3": Recording("opensim/angles-crouch3.mot", 0.0, "heavy", "coat", "crouch gait 3"),
     "crouch4": Recording("opensim/angles-crouch4.mot", 0.0, "short", "skirt", "crouch gait 4"),
     # Transfers: sits down and stands up twice (6.4 s; a low seat: the knees bend to 140 deg).
-    # No chair is rendered: the person sits on air, as if on a chair of the empty scene's
-    # colours behind them. Not in the default plan: `--recordings 75_19 --max-frames 130`.
+    # Without furniture the person sits on air, as if on a chair of the empty scene's colours
+    # behind them; `@chair` (e.g. `--views oblique@chair`) renders a chair under the seat. Not
+    # in the default plan: `--recordings 75_19 --max-frames 130`.
     "75_19": Recording("cmu/75_19.bvh", 0.0, "default", "loose", "CMU sit down, stand up x2"),
 }
 PATHOLOGICAL: tuple[str, ...] = ("crouch1", "crouch2", "crouch3", "crouch4")
