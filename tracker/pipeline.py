@@ -588,8 +588,7 @@ class Tracker:
         self._masks = masks
         fp = floor_point(self.lik_cameras, masks)
         self._floor_now = np.full(2, np.nan) if fp is None else np.asarray(fp, dtype=np.float64)
-        self._time_now = float(time_s)
-        t = float(time_s)
+        t = self._time_now = float(time_s)
         self._floor_hist = [e for e in self._floor_hist if t - FLOOR_HISTORY_S < e[0] < t]
         if fp is not None:
             self._floor_hist.append((t, float(fp[0]), float(fp[1])))
@@ -1160,8 +1159,8 @@ class Tracker:
         re-detection's trial filter steps from its best candidates), switch to those limits and
         adopt it. Only while the person is lower than a standing body of the stature
         (:meth:`_lower_than_standing`) and stands still: the silhouettes' floor point moves
-        slower than ``seated.max_floor_speed_m_s`` (:meth:`_floor_speed`; not before the track
-        has a path long enough to tell)."""
+        slower than ``seated.max_floor_speed_m_s`` (:meth:`_floor_speed`; not before the floor
+        points since someone came into view are enough to tell)."""
         sc = self.config.seated
         if self._seated_limits is None or self._seated or not np.all(np.isfinite(self._floor_now)):
             return pose, weight
