@@ -163,7 +163,7 @@ def _tracker(clip, **seated):
     return Tracker(cams, cfg, rng=np.random.default_rng(0), backgrounds=bgs, body=body)
 
 
-def _set_path(tracker, times: np.ndarray, floor: np.ndarray) -> None:
+def _set_floor_points(tracker, times: np.ndarray, floor: np.ndarray) -> None:
     """The silhouettes' floor points up to the last time (the current frame); NaN rows are
     frames without one."""
     ok = np.isfinite(floor).all(axis=1)
@@ -185,18 +185,18 @@ def test_floor_speed_rides_over_the_feet_alternation(clip) -> None:
     times = np.arange(0.0, 2.0 + 1e-9, 1 / FPS)
     for speed, step in [(0.5, 0.3), (1.0, 0.6), (0.4, 0.35)]:
         for start in (0.0, 0.13, 0.37):  # the window against the steps' phase
-            _set_path(tracker, times, _staircase(times + start, speed, step))
+            _set_floor_points(tracker, times, _staircase(times + start, speed, step))
             v = tracker._floor_speed(1.0)
             assert 0.5 * speed < v < 2.5 * speed, (speed, step, start, v)
     # standing still: 2 cm of noise and one frame's floor point 2 m off
     rng = np.random.default_rng(3)
     still = np.array([1.0, 0.5]) + rng.normal(0, 0.02, (times.size, 2))
     still[-8] += [2.0, 0.0]
-    _set_path(tracker, times, still)
+    _set_floor_points(tracker, times, still)
     assert tracker._floor_speed(1.0) < 0.1
     # frames without a floor point are left out
     still[-5:-2] = np.nan
-    _set_path(tracker, times, still)
+    _set_floor_points(tracker, times, still)
     assert tracker._floor_speed(1.0) < 0.1
     # a re-initialised estimate does not reset the silhouettes' floor points
     tracker._path = []
@@ -205,7 +205,7 @@ def test_floor_speed_rides_over_the_feet_alternation(clip) -> None:
     tracker._no_pose(40, 2.0, "nobody in view")
     assert tracker._floor_hist == [] and tracker._floor_speed(1.0) is None
     # a history shorter than half the window says nothing
-    _set_path(tracker, times[:8], still[:8])
+    _set_floor_points(tracker, times[:8], still[:8])
     assert tracker._floor_speed(1.0) is None
     tracker._floor_hist = []
     assert tracker._floor_speed(1.0) is None
@@ -225,19 +225,19 @@ def test_seated_search_waits_for_the_person_to_stand_still(clip, monkeypatch) ->
     monkeypatch.setattr(tracker, "_reduced_search", search)
     pose = tracker.body.neutral_pose(1.0, 0.0, 0.0)
     times = np.arange(0.0, 1.5 + 1e-9, 1 / FPS)
-    _set_path(tracker, times, _staircase(times, 0.6, 0.35))  # crouch gait's speed
+    _set_floor_points(tracker, times, _staircase(times, 0.6, 0.35))  # crouch gait's speed
     out, w = tracker._seated_search(pose, 0.5, 1 / FPS)
     assert not searched and out is pose and w == 0.5
-    _set_path(tracker, times[:3], np.full((3, 2), 1.0))  # the track's first frames
+    _set_floor_points(tracker, times[:3], np.full((3, 2), 1.0))  # the track's first frames
     tracker._seated_search(pose, 0.5, 1 / FPS)
     assert not searched
-    _set_path(tracker, times, np.full((times.size, 2), 1.0))  # standing still
+    _set_floor_points(tracker, times, np.full((times.size, 2), 1.0))  # standing still
     tracker._seated_search(pose, 0.5, 1 / FPS)
     assert searched == [True]
     # with the gate's speed raised, the walker is searched too
     tracker = _tracker(clip, max_floor_speed_m_s=5.0)
     monkeypatch.setattr(tracker, "_lower_than_standing", lambda fraction: True)
     monkeypatch.setattr(tracker, "_reduced_search", search)
-    _set_path(tracker, times, _staircase(times, 0.6, 0.35))
+    _set_floor_points(tracker, times, _staircase(times, 0.6, 0.35))
     tracker._seated_search(pose, 0.5, 1 / FPS)
     assert searched == [True, True]

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from gait.bouts import BoutSettings
 from gaitwatch.conventions import HEAD, L_HIP, L_TOE, R_HIP, R_TOE, SACRUM
 from gaitwatch.sim.motion import (
     complete_for_render,
@@ -208,8 +209,8 @@ def _place_occluder(
 
 
 #: Sitting, for the chairs: the sacrum below this fraction of its standing height (its 90th
-#: percentile over the recording; gait.bouts' sitting threshold) ...
-SEATED_FRACTION = 0.7
+#: percentile over the recording): the gait analysis's sitting threshold ...
+SEATED_FRACTION = BoutSettings.sitting_height_fraction
 #: ... for at least this long (s).
 SEATED_MIN_S = 0.5
 #: The hip centres' height over the seat of someone seated (m).
