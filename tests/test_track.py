@@ -684,6 +684,38 @@ def test_several_blobs_follow_the_tracked_one(clip: dict) -> None:
     assert max(errs[2:]) < 0.2
 
 
+@pytest.mark.parametrize("part_box", [(0.25, 0.5), (0.0, 0.0)])
+def test_a_part_below_the_followed_blob_is_kept(clip: dict, part_box) -> None:
+    """Feet cut off from the body (legs the segmentation misses) stay in the silhouette when
+    they lie below the followed blob (``part_box``); a blob off to the side does not."""
+    from tracker.pipeline import Tracker
+
+    tracker = Tracker(
+        clip["cams"],
+        TrackerConfig(ipf=IPFConfig(kept=9), part_box=part_box),
+        rng=np.random.default_rng(1),
+        backgrounds=clip["bgs"],
+        body=clip["body"],
+    )
+    for i in range(2):
+        tracker.process(i, i / FPS, clip["frames"][i])
+    frames = [f.copy() for f in clip["frames"][2]]
+    main = tracker.segment(frames)[0].blobs[0]
+    x, y, w, h = main.bbox
+    foot = (x + w // 2, y + h + h // 5)  # below the person's feet: outside the model
+    side = (x + w + h, y + h // 2)  # a person height to the right
+    for cx, cy in (foot, side):
+        cv2.rectangle(frames[0], (cx - 12, cy - 5), (cx + 12, cy + 5), (20, 20, 200), -1)
+    seg = tracker.segment(frames)[0]
+    assert len(seg.blobs) == 3
+    label_at = {name: int(seg.labels[c[1], c[0]]) for name, c in (("foot", foot), ("side", side))}
+    notes: list[str] = []
+    kept = {b.label for b in tracker._choose_blobs(0, seg, notes).blobs}
+    assert main.label in kept and label_at["side"] not in kept
+    assert (label_at["foot"] in kept) == (part_box != (0.0, 0.0))
+    assert ("1 part(s) inside the model" in notes[0]) == (part_box != (0.0, 0.0))
+
+
 # -- bad input: one-line error, non-zero exit, poses so far kept ----------------------------------
 def test_track_cli_writes_the_revised_first_frames_in_order(
     clip: dict, tmp_path: Path, capsys

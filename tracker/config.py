@@ -1276,6 +1276,17 @@ class TrackerConfig(_Model):
             "resolution) means nobody in view",
         ),
     ] = 30
+    part_box: Annotated[
+        tuple[float, float],
+        Field(
+            description="Blob choice (several blobs in a camera, a track under way): a blob "
+            "also counts as the followed person's when its centre lies inside the followed "
+            "blob's box widened on each side by part_box[0] and extended downwards by "
+            "part_box[1] times the box's height (feet cut off by legs the segmentation "
+            "misses: bare legs over a floor of their colour, under a skirt). (0, 0): only "
+            "blobs inside the track's model",
+        ),
+    ] = (0.25, 0.5)
 
     @field_validator("limits_profile")
     @classmethod
@@ -1289,6 +1300,13 @@ class TrackerConfig(_Model):
     def _size(cls, v: tuple[int, int]) -> tuple[int, int]:
         if not (8 <= v[0] <= 4096 and 8 <= v[1] <= 4096):
             raise ValueError("width and height must be within 8..4096")
+        return v
+
+    @field_validator("part_box")
+    @classmethod
+    def _part_box(cls, v: tuple[float, float]) -> tuple[float, float]:
+        if not all(0.0 <= x <= 3.0 for x in v):
+            raise ValueError("both factors must be within 0..3")
         return v
 
     @model_validator(mode="after")

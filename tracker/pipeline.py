@@ -170,6 +170,11 @@ def _capped_velocity(pose: np.ndarray, prev: np.ndarray, dt: float) -> np.ndarra
 _FEET_POINTS = [L_ANKLE, R_ANKLE, L_HEEL, R_HEEL, L_TOE, R_TOE]
 
 
+def _inside(point: tuple[float, float], box: tuple[float, float, float, float] | None) -> bool:
+    """Whether ``point`` (x, y) lies inside ``box`` (x0, y0, x1, y1); False without a box."""
+    return box is not None and box[0] <= point[0] <= box[2] and box[1] <= point[1] <= box[3]
+
+
 def _feet_distance(body, poses: np.ndarray, reference: np.ndarray) -> np.ndarray:
     """Mean distance (metres, (K,)) of each pose's ankles, heels and toes from ``reference``'s
     (key points (19, 3))."""
@@ -1797,8 +1802,13 @@ class Tracker:
                 d = np.nan_to_num(np.asarray(d), nan=np.inf)
                 best = int(np.argmin(d))
                 why = f"closest to the track ({d[best]:.0f} px)"
-            keep = [b for i, b in enumerate(seg.blobs) if i == best or ov[i] >= 0.3 * areas[i]]
             main = seg.blobs[best]
+            parts = self._part_box(main)
+            keep = [
+                b
+                for i, b in enumerate(seg.blobs)
+                if i == best or ov[i] >= 0.3 * areas[i] or _inside(b.centroid, parts)
+            ]
         cx, cy = main.centroid
         notes.append(
             f"camera {name}: {len(seg.blobs)} blobs, following the one at ({cx:.0f}, {cy:.0f}) "
@@ -1806,6 +1816,16 @@ class Tracker:
             + (f" with {len(keep) - 1} part(s) inside the model" if len(keep) > 1 else "")
         )
         return keep_blobs(seg, keep)
+
+    def _part_box(self, main) -> tuple[float, float, float, float] | None:
+        """``(x0, y0, x1, y1)``: where other parts of the person followed in blob ``main`` may
+        lie (``config.part_box``): its box widened on each side and extended downwards; None
+        when ``part_box`` is (0, 0)."""
+        side, below = self.config.part_box
+        if side == 0 and below == 0:
+            return None
+        x, y, w, h = main.bbox
+        return (x - side * h, y, x + w + side * h, y + h + below * h)
 
     def _predicted_sacrum(self) -> np.ndarray:
         assert self.prev_pose is not None
