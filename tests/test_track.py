@@ -713,7 +713,7 @@ def test_a_part_below_the_followed_blob_is_kept(clip: dict, part_box) -> None:
     kept = {b.label for b in tracker._choose_blobs(0, seg, notes).blobs}
     assert main.label in kept and label_at["side"] not in kept
     assert (label_at["foot"] in kept) == (part_box != (0.0, 0.0))
-    assert ("1 part(s) inside the model" in notes[0]) == (part_box != (0.0, 0.0))
+    assert ("with 1 other part(s) of the person" in notes[0]) == (part_box != (0.0, 0.0))
 
 
 # -- bad input: one-line error, non-zero exit, poses so far kept ----------------------------------

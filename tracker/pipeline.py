@@ -1813,7 +1813,7 @@ class Tracker:
         notes.append(
             f"camera {name}: {len(seg.blobs)} blobs, following the one at ({cx:.0f}, {cy:.0f}) "
             f"[{why}]"
-            + (f" with {len(keep) - 1} part(s) inside the model" if len(keep) > 1 else "")
+            + (f" with {len(keep) - 1} other part(s) of the person" if len(keep) > 1 else "")
         )
         return keep_blobs(seg, keep)
 
