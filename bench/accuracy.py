@@ -98,7 +98,20 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from gaitwatch.conventions import BONE_INDICES, L_HEEL, L_HIP, L_TOE, R_HEEL, R_HIP, R_TOE, SACRUM
+from gaitwatch.conventions import (
+    BONE_INDICES,
+    L_ANKLE,
+    L_HEEL,
+    L_HIP,
+    L_KNEE,
+    L_TOE,
+    R_ANKLE,
+    R_HEEL,
+    R_HIP,
+    R_KNEE,
+    R_TOE,
+    SACRUM,
+)
 from gaitwatch.evaluation import (
     JOINT_GROUPS,
     LOWER_LIMB,
@@ -707,6 +720,17 @@ def track(
     return est, info
 
 
+def leg_lengths(positions: np.ndarray) -> np.ndarray:
+    """Hip-knee plus knee-ankle length per frame, mean of both sides (metres; ``(T,)``)."""
+    p = np.asarray(positions, dtype=np.float64)
+    sides = [
+        np.linalg.norm(p[:, hip] - p[:, knee], axis=-1)
+        + np.linalg.norm(p[:, knee] - p[:, ankle], axis=-1)
+        for hip, knee, ankle in ((L_HIP, L_KNEE, L_ANKLE), (R_HIP, R_KNEE, R_ANKLE))
+    ]
+    return 0.5 * (sides[0] + sides[1])
+
+
 def diagnostics(truth: Trajectory, est: Trajectory, camera) -> dict[str, float]:
     """Heading error, sacrum errors, depth error along the first camera's line of sight, foot
     height, flat-foot stance errors, and where the worst frame is (for the diagnosis)."""
@@ -731,6 +755,7 @@ def diagnostics(truth: Trajectory, est: Trajectory, camera) -> dict[str, float]:
     foot_z = np.nanmin(ep[:, feet, 2], axis=1) - np.nanmin(tp[:, feet, 2], axis=1)
     width_t = np.linalg.norm(tp[:, L_HIP] - tp[:, R_HIP], axis=1)
     width_e = np.linalg.norm(ep[:, L_HIP] - ep[:, R_HIP], axis=1)
+    legs_t, legs_e = leg_lengths(tp), leg_lengths(ep)
     return {
         "heading_med_deg": float(np.nanmedian(head)),
         "heading_first_deg": float(head[0]),
@@ -743,6 +768,7 @@ def diagnostics(truth: Trajectory, est: Trajectory, camera) -> dict[str, float]:
         "second_half_mm": float(np.nanmean(err[len(err) // 2 :])),
         "worst_frame": int(truth.frames[it[int(np.nanargmax(lower))]]),
         "hip_width_ratio": float(np.nanmedian(width_e / width_t)),
+        "leg_length_ratio": float(np.nanmedian(legs_e) / np.nanmedian(legs_t)),
         **{f"stance_{k}": v for k, v in stance_bias(tp, ep).items()},
     }
 
@@ -845,7 +871,7 @@ def diag_table(runs: list[Run]) -> str:
     for r in runs:
         d = r.diag
         if not d:
-            rows.append([r.recording, r.view.label, r.filter] + ["-"] * 18)
+            rows.append([r.recording, r.view.label, r.filter] + ["-"] * 19)
             continue
         rows.append(
             [
@@ -861,6 +887,7 @@ def diag_table(runs: list[Run]) -> str:
                 f"{d['foot_dz_mm']:+.0f}",
                 f"{d['first_half_mm']:.0f} / {d['second_half_mm']:.0f}",
                 f"{d['hip_width_ratio']:.2f}",
+                f"{d['leg_length_ratio']:.2f}",
                 f"{d['stance_knee_deg']:+.0f} / {d['stance_pitch_deg']:+.0f}",
                 str(r.reinits),
                 f"{d['seg_iou']:.2f}",
@@ -886,6 +913,7 @@ def diag_table(runs: list[Run]) -> str:
             "lowest foot z err mm",
             "all mm 1st / 2nd half",
             "hip width est/true",
+            "leg length est/true",
             "flat-foot stance: knee / foot pitch err deg",
             "re-inits",
             "segmentation IoU",
@@ -1057,6 +1085,17 @@ def environment() -> str:
     )
 
 
+#: Diagnostics that ``--json`` records with each run's scores (``bench/paired.py`` compares them
+#: too): the body's proportions and the pose's gross errors.
+JSON_DIAGNOSTICS = (
+    "leg_length_ratio",
+    "hip_width_ratio",
+    "sacrum_dz_mm",
+    "depth_mm",
+    "heading_flip",
+)
+
+
 def run_record(run: Run) -> dict:
     """One run's scores as ``--json`` writes them (``bench/paired.py`` reads them); a score
     that is not a number (no angles scored) is None."""
@@ -1077,6 +1116,13 @@ def run_record(run: Run) -> dict:
         "swap_rate": num(m.swap_rate),
         "frames_lost": int(m.frames_lost),
         "ms_per_frame": num(m.ms_per_frame),
+        **{f"{g}_mm": num(m.group_mm.get(g, math.nan)) for g in JOINT_GROUPS},
+        **{k: num(run.diag[k]) for k in JSON_DIAGNOSTICS if k in run.diag},
+        **(
+            {"leg_length_err_pct": num(100 * abs(run.diag["leg_length_ratio"] - 1))}
+            if "leg_length_ratio" in run.diag
+            else {}
+        ),
     }
 
 

@@ -16,7 +16,9 @@ Runs pair on (scene seed, tracker seed, recording, view, filter); a run with no 
 left out and counted. Per filter and view, and per filter and camera count, it prints the
 runs, the base's and the new setting's means, and the paired difference (new - base, mean +-
 standard error over the runs) with the number of runs the new setting made better, for the
-all-joint and lower-limb errors (mm) and the knee flexion RMSE (deg).
+all-joint and lower-limb errors (mm) and the knee flexion RMSE (deg); ``--scores`` names
+other scores of the files (a joint group's error such as ``arms_mm``, or
+``leg_length_err_pct``: how far the estimate's leg length is from the truth's, in per cent).
 """
 
 from __future__ import annotations
@@ -35,6 +37,20 @@ SCORES = (
     ("lower_mm", "lower limbs mm"),
     ("knee_rmse_deg", "knee deg"),
 )
+
+#: Titles of the other scores ``--scores`` can name (any key of the runs works).
+TITLES = {
+    "head_neck_mm": "head and neck mm",
+    "trunk_mm": "trunk mm",
+    "arms_mm": "arms mm",
+    "hips_mm": "hips mm",
+    "knees_mm": "knees mm",
+    "ankles_feet_mm": "ankles and feet mm",
+    "hip_rmse_deg": "hip deg",
+    "swap_rate": "L/R swap rate",
+    "leg_length_err_pct": "leg length error % (|est/true - 1|)",
+    "sacrum_dz_mm": "sacrum height bias mm",
+}
 
 
 def _key(doc: dict, run: dict) -> tuple:
@@ -78,7 +94,7 @@ def paired(base: dict[tuple, dict], new: dict[tuple, dict], score: str) -> np.nd
     rows = [
         (base[k][score], new[k][score])
         for k in sorted(base.keys() & new.keys())
-        if base[k][score] is not None and new[k][score] is not None
+        if base[k].get(score) is not None and new[k].get(score) is not None
     ]
     return np.array(rows, dtype=float).reshape(-1, 2)
 
@@ -96,7 +112,9 @@ def row(label: str, values: np.ndarray) -> str:
     )
 
 
-def tables(base: dict[tuple, dict], new: dict[tuple, dict]) -> list[str]:
+def tables(
+    base: dict[tuple, dict], new: dict[tuple, dict], scores: tuple[tuple[str, str], ...] = SCORES
+) -> list[str]:
     """The markdown tables: per score, groups by (filter, view) then (filter, cameras)."""
     both = base.keys() & new.keys()
     groups: dict[str, set[tuple]] = defaultdict(set)
@@ -106,7 +124,7 @@ def tables(base: dict[tuple, dict], new: dict[tuple, dict]) -> list[str]:
         groups[f"{r['filter']}, {r['cameras']} camera(s), all views"].add(k)
         groups[f"{r['filter']}, all runs"].add(k)
     lines = []
-    for score, title in SCORES:
+    for score, title in scores:
         lines += [
             f"### {title}",
             "",
@@ -125,7 +143,20 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--base", nargs="+", type=Path, required=True, help="--json files, base")
     ap.add_argument("--new", nargs="+", type=Path, required=True, help="--json files, new")
+    ap.add_argument(
+        "--scores",
+        help="comma list of the runs' scores to compare (default: all_mm,lower_mm,knee_rmse_deg; "
+        "e.g. arms_mm,leg_length_err_pct)",
+    )
     args = ap.parse_args(argv)
+    scores = SCORES
+    if args.scores:
+        names = [n.strip() for n in args.scores.split(",") if n.strip()]
+        if not names:
+            print("paired: --scores names no score", file=sys.stderr)
+            return 2
+        known = dict(SCORES) | TITLES
+        scores = tuple((n, known.get(n, n)) for n in names)
     try:
         base, new = load(args.base), load(args.new)
     except ValueError as err:
@@ -147,7 +178,11 @@ def main(argv: list[str] | None = None) -> int:
         f"{len(both)} paired runs; unpaired: {len(base.keys() - both)} base, "
         f"{len(new.keys() - both)} new\n"
     )
-    print("\n".join(tables(base, new)))
+    missing = [n for n, _ in scores if not any(n in r for r in (*base.values(), *new.values()))]
+    if missing:
+        print(f"paired: no run has the score(s) {', '.join(missing)}", file=sys.stderr)
+        return 2
+    print("\n".join(tables(base, new, scores)))
     return 0
 
 

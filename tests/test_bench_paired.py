@@ -157,3 +157,71 @@ def test_paired_warns_across_environments(paired, tmp_path, capsys):
     assert "CPU A; NumPy 2" in out and "CPU B; NumPy 2" in out
     assert paired.main(["--base", str(one), str(same), "--new", str(one), str(old)]) == 0
     assert "warning" not in capsys.readouterr().out
+
+
+def test_accuracy_json_has_groups_and_proportions(accuracy, tmp_path):
+    """--json also records each joint group's error and the estimate's proportions: legs 10 %
+    too long give leg_length_ratio 1.1 and leg_length_err_pct 10; hips 20 % wide, 1.2."""
+    from gaitwatch.conventions import L_ANKLE, L_HIP, L_KNEE, R_ANKLE, R_HIP, R_KNEE, SACRUM
+    from gaitwatch.evaluation import JOINT_GROUPS, evaluate
+    from gaitwatch.trajectory import Trajectory
+
+    pos = np.zeros((6, 19, 3))
+    pos[:, :, 2] = 1.0
+    pos[:, :, 0] = np.arange(6)[:, None] * 0.06  # walking along x
+    for side, (hip, knee, ankle) in ((1, (L_HIP, L_KNEE, L_ANKLE)), (-1, (R_HIP, R_KNEE, R_ANKLE))):
+        pos[:, [hip, knee, ankle], 1] = side * 0.1
+        pos[:, hip, 2], pos[:, knee, 2], pos[:, ankle, 2] = 0.9, 0.5, 0.1
+    truth = Trajectory(times=np.arange(6) * 0.05, positions=pos, frames=np.arange(6))
+    est_pos = pos.copy()
+    for hip, knee, ankle in ((L_HIP, L_KNEE, L_ANKLE), (R_HIP, R_KNEE, R_ANKLE)):
+        est_pos[:, knee, 2], est_pos[:, ankle, 2] = 0.46, 0.02  # 0.88 m instead of 0.8
+        est_pos[:, [hip, knee, ankle], 1] *= 1.2  # legs 20 mm further out
+    est_pos[:, SACRUM, 2] -= 0.03
+    est = Trajectory(times=truth.times, positions=est_pos, frames=truth.frames)
+
+    class Cam:
+        center = (5.0, -4.0, 1.5)
+
+    diag = accuracy.diagnostics(truth, est, Cam())
+    assert diag["leg_length_ratio"] == pytest.approx(1.1)
+    assert diag["hip_width_ratio"] == pytest.approx(1.2)
+    assert diag["sacrum_dz_mm"] == pytest.approx(-30)
+    m = evaluate(truth, est)
+    run = accuracy.Run(
+        recording="07_06",
+        view=accuracy.ViewSpec.parse("oblique"),
+        body="heavy/fitted",
+        filter="ipf",
+        metrics=m,
+        filter_evaluations=1,
+        evals_tracked=1.0,
+        evals_init=0.0,
+        reinits=0,
+        diag=diag,
+    )
+    rec = accuracy.run_record(run)
+    assert rec["leg_length_ratio"] == pytest.approx(1.1)
+    assert rec["leg_length_err_pct"] == pytest.approx(10)
+    assert rec["sacrum_dz_mm"] == pytest.approx(-30)
+    for g in JOINT_GROUPS:
+        assert (rec[f"{g}_mm"] is None) == math.isnan(m.group_mm.get(g, math.nan))
+    assert rec["knees_mm"] == pytest.approx(1000 * math.hypot(0.04, 0.02))
+    assert rec["arms_mm"] == pytest.approx(0)
+
+
+def test_paired_other_scores(paired, tmp_path, capsys):
+    """--scores compares any score of the runs; a score no run has is an error."""
+    doc = _doc(0, [("a", "oblique", 1, "ipf", 100, 90, 10.0)])
+    doc["runs"][0]["leg_length_err_pct"] = 8.0
+    base = _write(tmp_path, "b.json", doc)
+    doc["runs"][0]["leg_length_err_pct"] = 3.0
+    new = _write(tmp_path, "n.json", doc)
+    argv = ["--base", str(base), "--new", str(new)]
+    assert paired.main([*argv, "--scores", "leg_length_err_pct,all_mm"]) == 0
+    out = capsys.readouterr().out
+    assert "### leg length error % (|est/true - 1|)" in out and "### all joints mm" in out
+    assert "| ipf, all runs | 1 | 8.0 | 3.0 | -5.0 +- n/a | 1 |" in out
+    assert "### knee deg" not in out
+    assert paired.main([*argv, "--scores", "arms_mm"]) == 2
+    assert "no run has the score(s) arms_mm" in capsys.readouterr().err
