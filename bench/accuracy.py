@@ -19,14 +19,15 @@ background PNGs, ``JOINTS.csv``) and read back, so the tracker sees codec artefa
 Diagnostics, to tell the tracker engineer where the error comes from: heading error (first
 frame and median; share of frames facing backwards), sacrum errors (horizontal, height bias,
 distance to the first camera: a one-camera depth slide), lowest-foot height error (feet sinking
-into or floating above the floor), hip width ratio, the mean signed knee flexion and foot
-pitch errors while the true foot stands flat on the floor (``gaitwatch.evaluation.stance_bias``:
-a knee bent too far, a toe pointing down), re-initialisations, silhouette IoU of the
-tracker's segmentation and of the estimate's model mask against the true person mask, and the
-tracker's body model **fitted to the true key points** (least squares over the 31 DOF within
-the joint limits, every ``--fit-step`` frames): its error is the floor set by the model's
-proportions, and its likelihood weight against the estimate's tells a search failure (the fit
-weighs more) from a likelihood ambiguity (a wrong pose weighs more).
+into or floating above the floor), hip width and leg length ratios, the mean signed knee
+flexion and foot pitch errors while the true foot stands flat on the floor
+(``gaitwatch.evaluation.stance_bias``: a knee bent too far, a toe pointing down),
+re-initialisations, silhouette IoU of the tracker's segmentation and of the estimate's model
+mask against the true person mask, and the tracker's body model **fitted to the true key
+points** (least squares over the 31 DOF within the joint limits, every ``--fit-step`` frames):
+its error is the floor set by the model's proportions, and its likelihood weight against the
+estimate's tells a search failure (the fit weighs more) from a likelihood ambiguity (a wrong
+pose weighs more).
 
 ``bench/search_ceiling.py`` runs the same scenes with footage of the tracker's own body fitted
 to the truth instead: the error left there is the search's alone.
