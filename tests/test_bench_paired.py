@@ -60,6 +60,22 @@ def _write(tmp: Path, name: str, doc: dict) -> Path:
     return p
 
 
+def _run(accuracy, metrics, view: str, diag: dict | None = None):
+    """A benchmark run of 07_06 by the IPF with these scores."""
+    return accuracy.Run(
+        recording="07_06",
+        view=accuracy.ViewSpec.parse(view),
+        body="heavy/fitted",
+        filter="ipf",
+        metrics=metrics,
+        filter_evaluations=6561,
+        evals_tracked=7000.0,
+        evals_init=0.0,
+        reinits=0,
+        diag=diag or {},
+    )
+
+
 def test_paired_differences(paired, tmp_path):
     """Two draws of two scenes: the new setting is 10 mm better on one scene and 20 mm worse
     on the other; a run without a partner and a knee score of None are left out."""
@@ -116,17 +132,7 @@ def test_accuracy_json_round_trip(accuracy, paired, tmp_path):
     truth = Trajectory(times=np.arange(5) * 0.05, positions=pos, frames=np.arange(5))
     est = Trajectory(times=truth.times, positions=pos + 0.01, frames=truth.frames)
     m = evaluate(truth, est)
-    run = accuracy.Run(
-        recording="07_06",
-        view=accuracy.ViewSpec.parse("side+frontal"),
-        body="heavy/fitted",
-        filter="ipf",
-        metrics=m,
-        filter_evaluations=6561,
-        evals_tracked=7000.0,
-        evals_init=0.0,
-        reinits=0,
-    )
+    run = _run(accuracy, m, "side+frontal")
     args = argparse.Namespace(seed=2, tracker_seed=902, config=None)
     out = tmp_path / "sub" / "r.json"
     accuracy.write_json(out, [run], ["--seed", "2"], args)
@@ -188,18 +194,7 @@ def test_accuracy_json_has_groups_and_proportions(accuracy, tmp_path):
     assert diag["hip_width_ratio"] == pytest.approx(1.2)
     assert diag["sacrum_dz_mm"] == pytest.approx(-30)
     m = evaluate(truth, est)
-    run = accuracy.Run(
-        recording="07_06",
-        view=accuracy.ViewSpec.parse("oblique"),
-        body="heavy/fitted",
-        filter="ipf",
-        metrics=m,
-        filter_evaluations=1,
-        evals_tracked=1.0,
-        evals_init=0.0,
-        reinits=0,
-        diag=diag,
-    )
+    run = _run(accuracy, m, "oblique", diag)
     rec = accuracy.run_record(run)
     assert rec["leg_length_ratio"] == pytest.approx(1.1)
     assert rec["leg_length_err_pct"] == pytest.approx(10)
