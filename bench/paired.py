@@ -38,7 +38,8 @@ SCORES = (
     ("knee_rmse_deg", "knee deg"),
 )
 
-#: Titles of the other scores ``--scores`` can name (any key of the runs works).
+#: Titles of the other scores ``--scores`` can name (any key of the runs works; "new better"
+#: counts the runs where the score fell, so name scores where lower is better).
 TITLES = {
     "head_neck_mm": "head and neck mm",
     "trunk_mm": "trunk mm",
@@ -49,7 +50,6 @@ TITLES = {
     "hip_rmse_deg": "hip deg",
     "swap_rate": "L/R swap rate",
     "leg_length_err_pct": "leg length error % (|est/true - 1|)",
-    "sacrum_dz_mm": "sacrum height bias mm",
 }
 
 
