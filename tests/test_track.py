@@ -281,7 +281,12 @@ def test_part_girths_estimated_over_the_first_tracked_frames(clip: dict) -> None
     factors = (0.8, 1.0, 1.25, 1.5, 1.8)
     config = TrackerConfig(
         ipf=IPFConfig(kept=9),
-        init={"girths": (1.0,), "part_girths": factors, "part_girth_frames": 3},
+        init={
+            "girths": (1.0,),
+            "part_girths": factors,
+            "part_girth_frames": 3,
+            "part_girth_max_multi_camera": None,  # every factor, two cameras as they are
+        },
     )
     found = []
     for legs in (1.0, 1.6):
@@ -310,6 +315,35 @@ def test_part_girths_estimated_over_the_first_tracked_frames(clip: dict) -> None
     for i in range(3):
         tracker.process(i, i / FPS, frames[i])
     assert set(tracker.body.part_girths.values()) == {1.2}
+
+
+def test_part_factors_capped_with_two_cameras(clip: dict) -> None:
+    """With two cameras the part factors above part_girth_max_multi_camera are not tried;
+    through one camera, or with no cap, all are; all above the cap: the smallest."""
+    from tracker.config import InitConfig
+    from tracker.pipeline import Tracker, part_factors
+
+    init = InitConfig(part_girths=(0.8, 1.0, 1.5, 1.8, 2.2), part_girth_max_multi_camera=1.5)
+    assert part_factors(init, 2) == (0.8, 1.0, 1.5)
+    assert part_factors(init, 3) == (0.8, 1.0, 1.5)
+    assert part_factors(init, 1) == (0.8, 1.0, 1.5, 1.8, 2.2)
+    uncapped = init.model_copy(update={"part_girth_max_multi_camera": None})
+    assert part_factors(uncapped, 2) == (0.8, 1.0, 1.5, 1.8, 2.2)
+    fat = init.model_copy(update={"part_girths": (2.2, 1.8)})
+    assert part_factors(fat, 2) == (1.8,)
+    assert TrackerConfig().init.part_girth_max_multi_camera == 1.5
+    with pytest.raises(ValueError):
+        InitConfig(part_girth_max_multi_camera=0.2)
+    # the tracker tries these factors, and a single one left is used from the start
+    config = TrackerConfig(
+        ipf=IPFConfig(kept=9), init={"girths": (1.0,), "part_girths": (1.0, 1.8)}
+    )
+    two = Tracker(clip["cams"], config, rng=np.random.default_rng(0), backgrounds=clip["bgs"])
+    assert len(clip["cams"]) == 2 and two.part_factors == (1.0,)
+    one = Tracker(
+        clip["cams"][:1], config, rng=np.random.default_rng(0), backgrounds=clip["bgs"][:1]
+    )
+    assert one.part_factors == (1.0, 1.8)
 
 
 def test_hem_estimated_for_a_skirt_and_not_for_trousers(clip: dict) -> None:

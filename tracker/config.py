@@ -393,6 +393,16 @@ class InitConfig(_Model):
             "this fraction",
         ),
     ] = 0.01
+    part_girth_max_multi_camera: Annotated[
+        float | None,
+        Field(
+            ge=0.5,
+            le=3.0,
+            description="With two cameras or more, the part factors of part_girths above this "
+            "are not tried (None: all are). Two views place the limbs; the fattest factors then "
+            "only let a fat trunk with fat arms held in cover the trunk and arms together",
+        ),
+    ] = 1.5
     part_girth_frames: Annotated[
         int,
         Field(

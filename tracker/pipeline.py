@@ -55,7 +55,7 @@ import numpy as np
 from gaitwatch.conventions import L_ANKLE, L_HEEL, L_TOE, R_ANKLE, R_HEEL, R_TOE, SACRUM
 from tracker.arms import search_arms
 from tracker.body import GIRTH_PARTS
-from tracker.config import TrackerConfig
+from tracker.config import InitConfig, TrackerConfig
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, SEATED_DOFS, wrap_angle
 from tracker.filters import Filter, make_filter, select_distinct
 from tracker.init import body_configurations, camera_floor_point, floor_point, initial_search
@@ -168,6 +168,17 @@ def _capped_velocity(pose: np.ndarray, prev: np.ndarray, dt: float) -> np.ndarra
 
 
 _FEET_POINTS = [L_ANKLE, R_ANKLE, L_HEEL, R_HEEL, L_TOE, R_TOE]
+
+
+def part_factors(init: InitConfig, n_cameras: int) -> tuple[float, ...]:
+    """The part factors tried (``init.part_girths``): with two cameras or more, none above
+    ``init.part_girth_max_multi_camera``; the smallest is kept when all are above."""
+    cap = init.part_girth_max_multi_camera
+    factors = tuple(init.part_girths)
+    if n_cameras < 2 or cap is None:
+        return factors
+    kept = tuple(g for g in factors if g <= cap)
+    return kept or (min(factors),)
 
 
 def _inside(point: tuple[float, float], box: tuple[float, float, float, float] | None) -> bool:
@@ -314,9 +325,11 @@ class Tracker:
         self._estimate_girth = body is None and likelihood is None
         self._girth_bodies: dict[tuple[float, ...], object] = {}
         self._girth_scores: dict[float, float] = {}
-        #: Part factors (config.init.part_girths), estimated over the first tracked frames.
+        #: Part factors (config.init.part_girths; with two cameras or more none above
+        #: part_girth_max_multi_camera), estimated over the first tracked frames.
+        self.part_factors = part_factors(c.init, len(cameras))
         self._estimate_parts = self._estimate_girth and (
-            len(c.init.part_girths) > 1 or len(c.init.hems) > 0
+            len(self.part_factors) > 1 or len(c.init.hems) > 0
         )
         self._part_scores: dict[tuple[str, float], float] = {}
         self._hem_scores: dict[tuple[float, float] | None, float] = {}
@@ -330,7 +343,7 @@ class Tracker:
         if body is None:
             from tracker.body import BodyModel
 
-            girths, parts, legs = c.init.girths, c.init.part_girths, c.init.leg_lengths
+            girths, parts, legs = c.init.girths, self.part_factors, c.init.leg_lengths
             body = BodyModel(
                 height_m=height_m,
                 girth=girths[0] if len(girths) == 1 else 1.0,
@@ -833,7 +846,7 @@ class Tracker:
         scored the same way; the best hem is used while its score beats no hem's by
         ``init.hem_margin``.
         """
-        factors = self.config.init.part_girths
+        factors = self.part_factors
         cand = self._shape_candidates(pose)
         current = self.body
         best: dict[str, float] = {}
