@@ -756,7 +756,7 @@ def diagnostics(truth: Trajectory, est: Trajectory, camera) -> dict[str, float]:
     foot_z = np.nanmin(ep[:, feet, 2], axis=1) - np.nanmin(tp[:, feet, 2], axis=1)
     width_t = np.linalg.norm(tp[:, L_HIP] - tp[:, R_HIP], axis=1)
     width_e = np.linalg.norm(ep[:, L_HIP] - ep[:, R_HIP], axis=1)
-    legs_t, legs_e = leg_lengths(tp), leg_lengths(ep)
+    legs = float(np.nanmedian(leg_lengths(ep)) / np.nanmedian(leg_lengths(tp)))
     return {
         "heading_med_deg": float(np.nanmedian(head)),
         "heading_first_deg": float(head[0]),
@@ -769,7 +769,8 @@ def diagnostics(truth: Trajectory, est: Trajectory, camera) -> dict[str, float]:
         "second_half_mm": float(np.nanmean(err[len(err) // 2 :])),
         "worst_frame": int(truth.frames[it[int(np.nanargmax(lower))]]),
         "hip_width_ratio": float(np.nanmedian(width_e / width_t)),
-        "leg_length_ratio": float(np.nanmedian(legs_e) / np.nanmedian(legs_t)),
+        "leg_length_ratio": legs,
+        "leg_length_err_pct": 100 * abs(legs - 1),
         **{f"stance_{k}": v for k, v in stance_bias(tp, ep).items()},
     }
 
@@ -1090,6 +1091,7 @@ def environment() -> str:
 #: too): the body's proportions and the pose's gross errors.
 JSON_DIAGNOSTICS = (
     "leg_length_ratio",
+    "leg_length_err_pct",
     "hip_width_ratio",
     "sacrum_dz_mm",
     "depth_mm",
@@ -1119,11 +1121,6 @@ def run_record(run: Run) -> dict:
         "ms_per_frame": num(m.ms_per_frame),
         **{f"{g}_mm": num(m.group_mm.get(g, math.nan)) for g in JOINT_GROUPS},
         **{k: num(run.diag[k]) for k in JSON_DIAGNOSTICS if k in run.diag},
-        **(
-            {"leg_length_err_pct": num(100 * abs(run.diag["leg_length_ratio"] - 1))}
-            if "leg_length_ratio" in run.diag
-            else {}
-        ),
     }
 
 

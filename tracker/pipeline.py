@@ -840,7 +840,7 @@ class Tracker:
 
         Over the first ``init.part_girth_frames`` tracked frames, the estimate and the heaviest
         distinct particles are weighed with each body part's volumes scaled by each factor of
-        ``init.part_girths`` (the other parts as they are); a part's score for a factor is the
+        :attr:`part_factors` (the other parts as they are); a part's score for a factor is the
         sum over frames of the best weight. After each frame every part takes its best-scoring
         factor; after the last the factors are fixed. The hems of ``init.hems`` and no hem are
         scored the same way; the best hem is used while its score beats no hem's by
