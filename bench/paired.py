@@ -12,6 +12,10 @@ once per setting, then::
     done
     python3 bench/paired.py --base base_*.json --new new_*.json
 
+A file written with ``--draws N`` holds N draws, each run with its own seeds::
+
+    python3 bench/accuracy.py --seed 0 --tracker-seed 900 --draws 4 --no-out --json base.json
+
 Runs pair on (scene seed, tracker seed, recording, view, filter); a run with no partner is
 left out and counted. Per filter and view, and per filter and camera count, it prints the
 runs, the base's and the new setting's means, and the paired difference (new - base, mean +-
@@ -54,7 +58,14 @@ TITLES = {
 
 
 def _key(doc: dict, run: dict) -> tuple:
-    return (doc["seed"], doc["tracker_seed"], run["recording"], run["view"], run["filter"])
+    """A run's seeds are its own (``--draws``) or, in files from before them, the file's."""
+    return (
+        run.get("seed", doc["seed"]),
+        run.get("tracker_seed", doc["tracker_seed"]),
+        run["recording"],
+        run["view"],
+        run["filter"],
+    )
 
 
 def load(paths: list[Path]) -> dict[tuple, dict]:
