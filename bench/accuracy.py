@@ -339,11 +339,11 @@ class Run:
     evals_tracked: float
     evals_init: float
     reinits: int
+    #: The draw: the scene's seed (clothes, room, light, noise) and the tracker's.
+    seed: int
+    tracker_seed: int
     diag: dict[str, float] = field(default_factory=dict)
     profile: tuple[np.ndarray, np.ndarray] | None = None
-    #: The draw: the scene's seed (body, clothes, room, noise) and the tracker's.
-    seed: int = 0
-    tracker_seed: int = 0
 
     @property
     def ncams(self) -> int:
@@ -1496,10 +1496,10 @@ def main(argv: list[str] | None = None) -> int:
                     evals_tracked=info["evals_tracked"],
                     evals_init=info["evals_init"],
                     reinits=info["reinits"],
-                    diag=d,
-                    profile=profile,
                     seed=seed,
                     tracker_seed=tracker_seed,
+                    diag=d,
+                    profile=profile,
                 )
                 runs.append(run)
                 tqdm.write(

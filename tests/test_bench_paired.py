@@ -60,8 +60,9 @@ def _write(tmp: Path, name: str, doc: dict) -> Path:
     return p
 
 
-def _run(accuracy, metrics, view: str, diag: dict | None = None):
-    """A benchmark run of 07_06 by the IPF with these scores."""
+def _run(accuracy, metrics, view: str, diag: dict | None = None, seed: int = 2):
+    """A benchmark run of 07_06 by the IPF with these scores (scene seed ``seed``, tracker
+    seed ``seed + 900``)."""
     return accuracy.Run(
         recording="07_06",
         view=accuracy.ViewSpec.parse(view),
@@ -72,6 +73,8 @@ def _run(accuracy, metrics, view: str, diag: dict | None = None):
         evals_tracked=7000.0,
         evals_init=0.0,
         reinits=0,
+        seed=seed,
+        tracker_seed=seed + 900,
         diag=diag or {},
     )
 
@@ -220,3 +223,81 @@ def test_paired_other_scores(paired, tmp_path, capsys):
     assert "### knee deg" not in out
     assert paired.main([*argv, "--scores", "arms_mm"]) == 2
     assert "no run has the score(s) arms_mm" in capsys.readouterr().err
+
+
+def _offset_metrics(mm: float):
+    """Scores of an estimate that misses every key point of a short walk by ``mm``."""
+    from gaitwatch.evaluation import evaluate
+    from gaitwatch.trajectory import Trajectory
+
+    pos = np.zeros((5, 19, 3))
+    pos[:, :, 2] = np.linspace(0.05, 1.7, 19)
+    pos[:, :, 0] = np.arange(5)[:, None] * 0.06
+    truth = Trajectory(times=np.arange(5) * 0.05, positions=pos, frames=np.arange(5))
+    est = Trajectory(times=truth.times, positions=pos + [0.0, 0.0, mm / 1000], frames=truth.frames)
+    return evaluate(truth, est)
+
+
+def _draw_run(accuracy, filt: str, seed: int, mm: float, view: str = "side+frontal"):
+    run = _run(accuracy, _offset_metrics(mm), view, seed=seed)
+    run.filter = filt
+    run.profile = (np.full(7, 0.5 + 0.1 * seed), np.full(7, 0.4))
+    return run
+
+
+def test_draws_pair_filters_within_each_draw(accuracy):
+    """Two draws of one scene: the filters pair within a draw, never across draws, and each
+    draw's own figure is printed beside the pooled one."""
+    runs = []
+    for seed, (ipf, apf, cond) in ((0, (50, 80, 60)), (1, (100, 90, 130))):
+        runs += [
+            _draw_run(accuracy, "ipf", seed, ipf),
+            _draw_run(accuracy, "apf", seed, apf),
+            _draw_run(accuracy, "condensation", seed, cond),
+        ]
+    text, checks = accuracy.targets(runs)
+    assert "Two cameras (2 scenes, IPF): all-joint error 75 mm" in text
+    assert "per draw (scene seeds 0, 1) 50 / 100 mm" in text
+    # IPF - APF per scene: -30 (draw 0), +10 (draw 1): mean -10, standard error 20
+    assert "IPF lower all-joint error in 1/2 scenes, per-scene difference -10 +- 20 mm" in text
+    assert "all-joint per draw 50 vs 80, 100 vs 90 mm" in text
+    # IPF - Condensation: -10, -30
+    assert "IPF lower all-joint error in 2/2 scenes, per-scene difference -20 +- 10 mm" in text
+    assert dict(checks)["IPF beats condensation at equal evaluations"] is True
+    # one draw alone: no per-draw figures, no seed column
+    one = [r for r in runs if r.seed == 0]
+    assert "per draw" not in accuracy.targets(one)[0]
+    assert accuracy.runs_table(one).startswith("| recording | view | body |")
+
+
+def test_draws_in_tables_and_json(accuracy, paired, tmp_path):
+    """Over several draws the per-run tables show the scene seed, the depth profile is
+    averaged per scene, and --json gives each run its own seeds, which paired.py pairs on."""
+    runs = [_draw_run(accuracy, "ipf", s, 50 + 10 * s) for s in (3, 4)]
+    table = accuracy.runs_table(runs).splitlines()
+    assert table[0].startswith("| recording | view | seed | body | filter |")
+    assert table[2].startswith("| 07_06 | side+frontal | 3 |")
+    assert table[3].startswith("| 07_06 | side+frontal | 4 |")
+    assert accuracy.diag_table(runs).startswith("| recording | view | seed | filter |")
+    profile = accuracy.profile_table(runs).splitlines()
+    assert len(profile) == 3  # one row: the two draws averaged
+    assert profile[2].startswith("| 07_06 | side+frontal | 0.85 / 0.40 |")
+    args = argparse.Namespace(seed=3, tracker_seed=903, config=None, draws=2)
+    out = tmp_path / "d.json"
+    accuracy.write_json(out, runs, ["--seed", "3", "--draws", "2"], args)
+    doc = json.loads(out.read_text(encoding="utf-8"))
+    assert doc["draws"] == 2
+    assert [(r["seed"], r["tracker_seed"]) for r in doc["runs"]] == [(3, 903), (4, 904)]
+    keys = sorted(paired.load([out]))
+    assert keys == [
+        (3, 903, "07_06", "side+frontal", "ipf"),
+        (4, 904, "07_06", "side+frontal", "ipf"),
+    ]
+    assert "2 draws: scene seeds 3-4 with tracker seeds 903-904" in accuracy._seeds_text(args)
+
+
+def test_draws_must_be_positive(accuracy, capsys):
+    with pytest.raises(SystemExit):
+        accuracy.parse_args(["--draws", "0"])
+    assert "--draws must be within 1..100" in capsys.readouterr().err
+    assert accuracy.parse_args(["--draws", "3"]).draws == 3
