@@ -988,14 +988,18 @@ def _spread(values: list[float], unit: str, digits: int = 0) -> str:
     return f"per scene {min(v):.{digits}f}-{max(v):.{digits}f} {unit}"
 
 
+def _draw_scores(runs: list[Run], seeds: list[int], score: str) -> list[float]:
+    """``score`` (a pooled ``TrackingMetrics`` field) of each draw's runs alone."""
+    return [getattr(pool(r.metrics for r in runs if r.seed == s), score) for s in seeds]
+
+
 def _per_draw(runs: list[Run], score: str, unit: str, digits: int = 0) -> str:
-    """``score`` (a pooled ``TrackingMetrics`` field) of each draw alone, over several draws:
-    how far one draw's reading of a target can move ("" for one draw)."""
+    """``score`` of each draw alone, over several draws: how far one draw's reading of a
+    target can move ("" for one draw)."""
     seeds = sorted({r.seed for r in runs})
     if len(seeds) < 2:
         return ""
-    vals = [getattr(pool(r.metrics for r in runs if r.seed == s), score) for s in seeds]
-    text = " / ".join(f"{v:.{digits}f}" for v in vals)
+    text = " / ".join(f"{v:.{digits}f}" for v in _draw_scores(runs, seeds, score))
     return f"; per draw (scene seeds {', '.join(map(str, seeds))}) {text} {unit}"
 
 
@@ -1004,13 +1008,9 @@ def _per_draw_vs(ipf: list[Run], other: list[Run]) -> str:
     seeds = sorted({r.seed for r in ipf} & {r.seed for r in other})
     if len(seeds) < 2:
         return ""
-    pairs = [
-        (
-            pool(r.metrics for r in ipf if r.seed == s).mpjpe_mm,
-            pool(r.metrics for r in other if r.seed == s).mpjpe_mm,
-        )
-        for s in seeds
-    ]
+    pairs = zip(
+        _draw_scores(ipf, seeds, "mpjpe_mm"), _draw_scores(other, seeds, "mpjpe_mm"), strict=True
+    )
     return "; all-joint per draw " + ", ".join(f"{a:.0f} vs {b:.0f}" for a, b in pairs) + " mm"
 
 
