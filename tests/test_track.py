@@ -451,6 +451,43 @@ def test_walking_direction_auto_falls_back_on_the_silhouettes(clip: dict) -> Non
     assert walk((1.0, 0.0), (0.0, 1.0))["auto"] == pytest.approx(0.0)
 
 
+def test_sustained_backward_walk_despite_depth_jitter(clip: dict) -> None:
+    """``heading_check.sustained_s``: a second of walking away from the heading counts even when
+    frame-to-frame jitter (one camera's depth) fails ``min_straightness``; a shorter path, a
+    person standing still, a heading along the walk or the setting off do not."""
+    from tracker.dof import DOF
+
+    tracker = _tracker_after_first_frame(clip)
+    hc = tracker.config.heading_check
+    assert hc.sustained_s == pytest.approx(1.0) and hc.min_straightness == pytest.approx(0.7)
+    pose = tracker.prev_pose.copy()
+    yaw = DOF["root_yaw"]
+
+    def path(duration, speed, jitter):
+        t = np.arange(int(round(duration / 0.05)) + 1) * 0.05
+        x = speed * t + jitter * (-1.0) ** np.arange(t.size)  # +x, jitter along the walk
+        entries = [(ti, xi, 0.0, np.nan, np.nan) for ti, xi in zip(t, x, strict=True)]
+        tracker._path = entries[:-1]
+        pose[:2] = entries[-1][1:3]
+        tracker._floor_now = np.array([np.nan, np.nan])  # no silhouette path
+        return t[-1]
+
+    now = path(1.0, 1.0, 0.08)
+    assert tracker._walking_direction(pose, now, "estimate", 1.0, 0.9) is None  # too jittery
+    pose[yaw] = np.pi  # facing -x while walking +x
+    assert tracker._walks_backwards(pose, now)
+    pose[yaw] = 0.3  # facing the walk
+    assert not tracker._walks_backwards(pose, now)
+    pose[yaw] = np.pi
+    now = path(0.5, 1.0, 0.08)  # half a second only
+    assert not tracker._walks_backwards(pose, now)
+    now = path(1.0, 0.0, 0.08)  # jitter, no walk
+    assert not tracker._walks_backwards(pose, now)
+    now = path(1.0, 1.0, 0.08)
+    tracker.config.heading_check.sustained_s = 0.0
+    assert not tracker._walks_backwards(pose, now)
+
+
 def test_auto_span_longer_than_its_window_is_refused() -> None:
     from pydantic import ValidationError
 

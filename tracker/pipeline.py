@@ -1572,6 +1572,8 @@ class Tracker:
         off = float(np.degrees(abs(wrap_angle(yaw - travel))))
         if off <= hc.max_angle_deg:
             return None
+        sustained = self._walks_backwards(pose, time_s)
+        accept = hc.sustained_ratio if sustained else hc.accept_ratio
         span = np.radians(hc.span_deg)
         with _numba_threads(self.threads):
             res = initial_search(
@@ -1590,20 +1592,20 @@ class Tracker:
         if res is None:
             return None
         rc = self.config.redetect
-        if res.best_weight < hc.accept_ratio * weight:
+        if res.best_weight < accept * weight:
             # The coarse grid facing the walking direction seldom matches an estimate refined
             # over many frames: refine its candidates as re-detection does before deciding.
             if (
                 rc.refine_steps == 0
                 or hc.leg_choice == "refine"
-                or res.best_weight < rc.refine_ratio * weight
+                or (res.best_weight < rc.refine_ratio * weight and not sustained)
             ):
                 return None
             poses, weights = res.poses, res.weights
             if hc.leg_choice == "feet":
                 poses, weights = self._feet_continuity(pose, poses, weights, hc)
             new, w, saved = self._trial_steps(poses, weights, dt, rc.refine_steps)
-            if w < hc.accept_ratio * weight:
+            if w < accept * weight:
                 self.filter.__dict__.update(saved)
                 return None
         elif hc.leg_choice == "refine":
@@ -1617,10 +1619,44 @@ class Tracker:
             new.copy(),
             float(w),
             f"heading {np.degrees(pose[DOF['root_yaw']]):.0f} deg was {off:.0f} deg off the "
-            f"walking direction: re-initialised facing {np.degrees(travel):.0f} deg "
+            f"walking direction{' for over ' + str(hc.sustained_s) + ' s' if sustained else ''}:"
+            f" re-initialised facing {np.degrees(travel):.0f} deg "
             f"(weight {w:.3f}, was {weight:.3f})",
             False,
         )
+
+    def _walks_backwards(self, pose: np.ndarray, time_s: float) -> bool:
+        """True when the track has moved backwards for ``heading_check.sustained_s`` seconds.
+
+        The path since the last check (the estimate's, or the silhouettes' floor point's
+        when the estimate's is no walk, as ``source`` "auto"; the one source named otherwise)
+        must span at least 0.9 of that time; its least-squares velocity must reach
+        ``min_speed_m_s``, explain at least 80 % of the path's scatter (a walk, not depth
+        jitter; over a second, summed frame-to-frame jitter fails ``min_straightness``) and
+        point more than ``max_angle_deg`` away from the heading.
+        """
+        hc = self.config.heading_check
+        if hc.sustained_s <= 0:
+            return False
+        path = np.array([*self._path, self._path_entry(time_s, pose)])
+        path = path[path[:, 0] >= time_s - hc.sustained_s - 1e-9]
+        sources = ("estimate", "silhouette") if hc.source == "auto" else (hc.source,)
+        for source in sources:
+            p = path[np.isfinite(path[:, 3])][:, [0, 3, 4]] if source == "silhouette" else path
+            p = p[:, :3]
+            if p.shape[0] < hc.min_frames or p[-1, 0] - p[0, 0] < 0.9 * hc.sustained_s - 1e-9:
+                continue
+            t = p[:, 0] - p[:, 0].mean()
+            xy = p[:, 1:] - p[:, 1:].mean(axis=0)
+            v = self._time_sign * (t @ xy) / (t @ t)
+            scatter = float((xy**2).sum())
+            resid = float(((xy - np.outer(t, self._time_sign * v)) ** 2).sum())
+            if np.hypot(*v) < hc.min_speed_m_s or not resid <= 0.2 * scatter:
+                continue
+            travel = float(np.arctan2(v[1], v[0]))
+            off = float(np.degrees(abs(wrap_angle(pose[DOF["root_yaw"]] - travel))))
+            return off > hc.max_angle_deg
+        return False
 
     def _follow_turn(
         self, pose: np.ndarray, weight: float, dt: float, travel: float, off: float
