@@ -452,9 +452,11 @@ def test_walking_direction_auto_falls_back_on_the_silhouettes(clip: dict) -> Non
 
 
 def test_sustained_backward_walk_despite_depth_jitter(clip: dict) -> None:
-    """``heading_check.sustained_s``: a second of walking away from the heading counts even when
-    frame-to-frame jitter (one camera's depth) fails ``min_straightness``; a shorter path, a
-    person standing still, a heading along the walk or the setting off do not."""
+    """``heading_check.sustained_s``: a second in which the silhouettes walked away from the
+    heading counts even when frame-to-frame jitter (one camera's depth) fails
+    ``min_straightness``, and the estimate's path agrees or is no walk (a stuck track); it does
+    not when the estimate walked the other way, without floor points, over a shorter path, for
+    a person standing still, for a heading along the walk, or with the setting off."""
     from tracker.dof import DOF
 
     tracker = _tracker_after_first_frame(clip)
@@ -463,27 +465,33 @@ def test_sustained_backward_walk_despite_depth_jitter(clip: dict) -> None:
     pose = tracker.prev_pose.copy()
     yaw = DOF["root_yaw"]
 
-    def path(duration, speed, jitter):
+    def path(duration, silhouette_v, estimate_v, jitter=0.08):
         t = np.arange(int(round(duration / 0.05)) + 1) * 0.05
-        x = speed * t + jitter * (-1.0) ** np.arange(t.size)  # +x, jitter along the walk
-        entries = [(ti, xi, 0.0, np.nan, np.nan) for ti, xi in zip(t, x, strict=True)]
+        wobble = jitter * (-1.0) ** np.arange(t.size)  # along x, as depth through one camera
+        sil = silhouette_v * t + wobble
+        est = estimate_v * t + 0.5 * wobble
+        entries = list(zip(t, est, 0.0 * t, sil, 0.0 * t, strict=True))
         tracker._path = entries[:-1]
         pose[:2] = entries[-1][1:3]
-        tracker._floor_now = np.array([np.nan, np.nan])  # no silhouette path
+        tracker._floor_now = np.asarray(entries[-1][3:5])
         return t[-1]
 
-    now = path(1.0, 1.0, 0.08)
-    assert tracker._walking_direction(pose, now, "estimate", 1.0, 0.9) is None  # too jittery
-    pose[yaw] = np.pi  # facing -x while walking +x
+    now = path(1.0, 1.0, 1.0)  # walking +x
+    assert tracker._walking_direction(pose, now, "silhouette", 1.0, 0.9) is None  # jittery
+    pose[yaw] = np.pi  # facing -x
     assert tracker._walks_backwards(pose, now)
     pose[yaw] = 0.3  # facing the walk
     assert not tracker._walks_backwards(pose, now)
     pose[yaw] = np.pi
-    now = path(0.5, 1.0, 0.08)  # half a second only
-    assert not tracker._walks_backwards(pose, now)
-    now = path(1.0, 0.0, 0.08)  # jitter, no walk
-    assert not tracker._walks_backwards(pose, now)
-    now = path(1.0, 1.0, 0.08)
+    assert tracker._walks_backwards(pose, path(1.0, 1.0, 0.0))  # a stuck track
+    assert not tracker._walks_backwards(pose, path(1.0, 1.0, -1.0))  # the estimate disagrees
+    assert not tracker._walks_backwards(pose, path(0.5, 1.0, 1.0))  # half a second only
+    assert not tracker._walks_backwards(pose, path(1.0, 0.0, 0.0))  # jitter, no walk
+    now = path(1.0, 1.0, 1.0)
+    tracker._path = [(*e[:3], np.nan, np.nan) for e in tracker._path]
+    tracker._floor_now = np.array([np.nan, np.nan])
+    assert not tracker._walks_backwards(pose, now)  # no floor points
+    now = path(1.0, 1.0, 1.0)
     tracker.config.heading_check.sustained_s = 0.0
     assert not tracker._walks_backwards(pose, now)
 

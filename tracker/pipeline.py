@@ -1573,7 +1573,6 @@ class Tracker:
         if off <= hc.max_angle_deg:
             return None
         sustained = self._walks_backwards(pose, time_s)
-        accept = hc.sustained_ratio if sustained else hc.accept_ratio
         span = np.radians(hc.span_deg)
         with _numba_threads(self.threads):
             res = initial_search(
@@ -1592,9 +1591,10 @@ class Tracker:
         if res is None:
             return None
         rc = self.config.redetect
-        if res.best_weight < accept * weight:
+        if res.best_weight < hc.accept_ratio * weight:
             # The coarse grid facing the walking direction seldom matches an estimate refined
-            # over many frames: refine its candidates as re-detection does before deciding.
+            # over many frames: refine its candidates as re-detection does before deciding. A
+            # sustained flip refines them however light and accepts them lighter.
             if (
                 rc.refine_steps == 0
                 or hc.leg_choice == "refine"
@@ -1605,7 +1605,7 @@ class Tracker:
             if hc.leg_choice == "feet":
                 poses, weights = self._feet_continuity(pose, poses, weights, hc)
             new, w, saved = self._trial_steps(poses, weights, dt, rc.refine_steps)
-            if w < accept * weight:
+            if w < (hc.sustained_ratio if sustained else hc.accept_ratio) * weight:
                 self.filter.__dict__.update(saved)
                 return None
         elif hc.leg_choice == "refine":
@@ -1628,35 +1628,38 @@ class Tracker:
     def _walks_backwards(self, pose: np.ndarray, time_s: float) -> bool:
         """True when the track has moved backwards for ``heading_check.sustained_s`` seconds.
 
-        The path since the last check (the estimate's, or the silhouettes' floor point's
-        when the estimate's is no walk, as ``source`` "auto"; the one source named otherwise)
-        must span at least 0.9 of that time; its least-squares velocity must reach
-        ``min_speed_m_s``, explain at least 80 % of the path's scatter (a walk, not depth
-        jitter; over a second, summed frame-to-frame jitter fails ``min_straightness``) and
-        point more than ``max_angle_deg`` away from the heading.
+        The silhouettes' floor point (where the person is, whatever the track does) must have
+        walked more than ``max_angle_deg`` away from the heading over the path since the last
+        check, spanning at least 0.9 of ``sustained_s``; the estimate's own path must not say
+        otherwise (through one camera a track sliding along the line of sight looks like a
+        walk). A path counts as a walk when its least-squares velocity reaches
+        ``min_speed_m_s`` and explains at least half its scatter (over a second, summed
+        frame-to-frame jitter fails ``min_straightness``).
         """
         hc = self.config.heading_check
         if hc.sustained_s <= 0:
             return False
         path = np.array([*self._path, self._path_entry(time_s, pose)])
         path = path[path[:, 0] >= time_s - hc.sustained_s - 1e-9]
-        sources = ("estimate", "silhouette") if hc.source == "auto" else (hc.source,)
-        for source in sources:
-            p = path[np.isfinite(path[:, 3])][:, [0, 3, 4]] if source == "silhouette" else path
-            p = p[:, :3]
+        off = {}
+        for source, cols in (("silhouette", [0, 3, 4]), ("estimate", [0, 1, 2])):
+            p = path[:, cols]
+            p = p[np.isfinite(p[:, 1])]  # frames without a floor point
+            off[source] = None
             if p.shape[0] < hc.min_frames or p[-1, 0] - p[0, 0] < 0.9 * hc.sustained_s - 1e-9:
                 continue
             t = p[:, 0] - p[:, 0].mean()
             xy = p[:, 1:] - p[:, 1:].mean(axis=0)
-            v = self._time_sign * (t @ xy) / (t @ t)
+            fit = (t @ xy) / (t @ t)
             scatter = float((xy**2).sum())
-            resid = float(((xy - np.outer(t, self._time_sign * v)) ** 2).sum())
-            if np.hypot(*v) < hc.min_speed_m_s or not resid <= 0.2 * scatter:
+            resid = float(((xy - np.outer(t, fit)) ** 2).sum())
+            if np.hypot(*fit) < hc.min_speed_m_s or not resid <= 0.5 * scatter:
                 continue
-            travel = float(np.arctan2(v[1], v[0]))
-            off = float(np.degrees(abs(wrap_angle(pose[DOF["root_yaw"]] - travel))))
-            return off > hc.max_angle_deg
-        return False
+            travel = np.arctan2(*(self._time_sign * fit)[::-1])
+            off[source] = float(np.degrees(abs(wrap_angle(pose[DOF["root_yaw"]] - travel))))
+        sil, est = off["silhouette"], off["estimate"]
+        backwards = sil is not None and sil > hc.max_angle_deg
+        return backwards and (est is None or est > hc.max_angle_deg)
 
     def _follow_turn(
         self, pose: np.ndarray, weight: float, dt: float, travel: float, off: float
