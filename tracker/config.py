@@ -639,9 +639,9 @@ class HeadingCheckConfig(_Model):
     current estimate. People seldom walk backwards. The walking direction (``source``
     "auto") is the estimated origin's, or the silhouettes' floor point's when the estimate's
     path is not a walk: a track stuck facing the wrong way does not move with the person.
-    When the silhouettes have walked that way for ``sustained_s`` too, the flip is sustained:
-    its candidates are refined and adopted at ``sustained_ratio`` (a track refined facing the
-    wrong way outweighs fresh candidates facing the right way).
+    When the silhouettes and the estimate have both walked that way for ``sustained_s``, the
+    flip is sustained: its candidates are refined and adopted at ``sustained_ratio`` (a track
+    refined facing the wrong way outweighs fresh candidates facing the right way).
 
     Turn following (``turn_*``): when the heading is more than ``turn_angle_deg`` (and at most
     ``max_angle_deg``) off the walking direction of the silhouettes' floor points, the reduced
@@ -693,9 +693,9 @@ class HeadingCheckConfig(_Model):
             ge=0,
             le=60,
             description="A check that fires is sustained when, over this long (a path since "
-            "the last check spanning at least 0.9 of it), the silhouettes' floor point also "
-            "walked more than max_angle_deg away from the heading and the estimate's path "
-            "agrees or is no walk (a walk: least-squares speed of at least min_speed_m_s, "
+            "the last check spanning at least 0.9 of it), the silhouettes' floor point and the "
+            "estimate both walked more than max_angle_deg away from the heading (a walk: "
+            "least-squares speed of at least min_speed_m_s, "
             "explaining half the path's scatter). Its candidates are then refined "
             "(redetect.refine_steps) however light, and adopted at sustained_ratio times the "
             "estimate's weight: a track refined for many frames facing the wrong way outweighs "

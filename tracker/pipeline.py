@@ -1628,11 +1628,13 @@ class Tracker:
     def _walks_backwards(self, pose: np.ndarray, time_s: float) -> bool:
         """True when the track has moved backwards for ``heading_check.sustained_s`` seconds.
 
-        The silhouettes' floor point (where the person is, whatever the track does) must have
-        walked more than ``max_angle_deg`` away from the heading over the path since the last
-        check, spanning at least 0.9 of ``sustained_s``; the estimate's own path must not say
-        otherwise (through one camera a track sliding along the line of sight looks like a
-        walk). A path counts as a walk when its least-squares velocity reaches
+        Both the silhouettes' floor point and the estimate must have walked more than
+        ``max_angle_deg`` away from the heading over the path since the last check, spanning at
+        least 0.9 of ``sustained_s``: two observations that agree. Alone, each misleads: through
+        one camera a track sliding along the line of sight looks like a walk, and on a
+        treadmill the floor point moves with the belt while the estimate stays (the floor point
+        alone turned a right heading round there). A path counts as a walk when its
+        least-squares velocity reaches
         ``min_speed_m_s`` and explains at least half its scatter (over a second, summed
         frame-to-frame jitter fails ``min_straightness``).
         """
@@ -1658,8 +1660,7 @@ class Tracker:
             travel = np.arctan2(*(self._time_sign * fit)[::-1])
             off[source] = float(np.degrees(abs(wrap_angle(pose[DOF["root_yaw"]] - travel))))
         sil, est = off["silhouette"], off["estimate"]
-        backwards = sil is not None and sil > hc.max_angle_deg
-        return backwards and (est is None or est > hc.max_angle_deg)
+        return all(o is not None and o > hc.max_angle_deg for o in (sil, est))
 
     def _follow_turn(
         self, pose: np.ndarray, weight: float, dt: float, travel: float, off: float
