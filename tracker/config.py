@@ -695,8 +695,8 @@ class HeadingCheckConfig(_Model):
             description="A check that fires is sustained when, over this long (a path since "
             "the last check spanning at least 0.9 of it), the silhouettes' floor point and the "
             "estimate both walked more than max_angle_deg away from the heading (a walk: "
-            "least-squares speed of at least min_speed_m_s, "
-            "explaining half the path's scatter). Its candidates are then refined "
+            "least-squares speed of at least min_speed_m_s, explaining half the path's "
+            "scatter). Its candidates are then refined "
             "(redetect.refine_steps) however light, and adopted at sustained_ratio times the "
             "estimate's weight: a track refined for many frames facing the wrong way outweighs "
             "fresh candidates facing the right way. 0: off",

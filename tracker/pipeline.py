@@ -1630,13 +1630,13 @@ class Tracker:
 
         Both the silhouettes' floor point and the estimate must have walked more than
         ``max_angle_deg`` away from the heading over the path since the last check, spanning at
-        least 0.9 of ``sustained_s``: two observations that agree. Alone, each misleads: through
+        least 0.9 of ``sustained_s``: two observations that agree. Alone, each misled: through
         one camera a track sliding along the line of sight looks like a walk, and on a
-        treadmill the floor point moves with the belt while the estimate stays (the floor point
-        alone turned a right heading round there). A path counts as a walk when its
-        least-squares velocity reaches
-        ``min_speed_m_s`` and explains at least half its scatter (over a second, summed
-        frame-to-frame jitter fails ``min_straightness``).
+        treadmill the belt carries the feet, and so the floor point, while the estimate stays
+        (there the floor point alone turned the heading round and the error rose). A path
+        counts as a walk when its least-squares velocity reaches ``min_speed_m_s`` and explains
+        at least half its scatter (over a second, summed frame-to-frame jitter fails
+        ``min_straightness``).
         """
         hc = self.config.heading_check
         if hc.sustained_s <= 0:
