@@ -181,6 +181,15 @@ def part_factors(init: InitConfig, n_cameras: int) -> tuple[float, ...]:
     return kept or (min(factors),)
 
 
+def _path_fit(path: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """Least-squares velocity of a path of (time, x, y) rows, in the rows' time, with the
+    residual and total sums of squares of its positions about that linear motion."""
+    t = path[:, 0] - path[:, 0].mean()
+    xy = path[:, 1:] - path[:, 1:].mean(axis=0)
+    v = (t @ xy) / (t @ t)
+    return v, float(((xy - np.outer(t, v)) ** 2).sum()), float((xy**2).sum())
+
+
 def _inside(point: tuple[float, float], box: tuple[float, float, float, float] | None) -> bool:
     """Whether ``point`` (x, y) lies inside ``box`` (x0, y0, x1, y1); False without a box."""
     return box is not None and box[0] <= point[0] <= box[2] and box[1] <= point[1] <= box[3]
@@ -1522,17 +1531,11 @@ class Tracker:
                 )
             return travel
         span = hc.min_span_s if min_span_s is None else min_span_s
-        path = np.array([*self._path, self._path_entry(time_s, pose)])
-        path = path[path[:, 0] >= time_s - window_s - 1e-9]
-        if source == "silhouette":
-            path = path[np.isfinite(path[:, 3])][:, [0, 3, 4]]
-        else:
-            path = path[:, :3]
+        path = self._recent_path(pose, time_s, window_s, source)
         if path.shape[0] < hc.min_frames or path[-1, 0] - path[0, 0] < span - 1e-9:
             return None
         # Least-squares velocity over the window: robust to the jitter of single estimates.
-        t = path[:, 0] - path[:, 0].mean()
-        v = self._time_sign * (t @ (path[:, 1:] - path[:, 1:].mean(axis=0))) / (t @ t)
+        v = self._time_sign * _path_fit(path)[0]
         if np.hypot(*v) < hc.min_speed_m_s:
             return None
         steps = np.hypot(*np.diff(path[:, 1:], axis=0).T).sum()
@@ -1625,6 +1628,18 @@ class Tracker:
             False,
         )
 
+    def _recent_path(
+        self, pose: np.ndarray, time_s: float, window_s: float, source: str
+    ) -> np.ndarray:
+        """(time, x, y) rows of the last ``window_s`` seconds of the path, this frame included:
+        the estimated origin's (``source`` "estimate") or the silhouettes' floor point's
+        ("silhouette", frames without one left out)."""
+        path = np.array([*self._path, self._path_entry(time_s, pose)])
+        path = path[path[:, 0] >= time_s - window_s - 1e-9]
+        if source == "silhouette":
+            return path[np.isfinite(path[:, 3])][:, [0, 3, 4]]
+        return path[:, :3]
+
     def _walks_backwards(self, pose: np.ndarray, time_s: float) -> bool:
         """True when the track has moved backwards for ``heading_check.sustained_s`` seconds.
 
@@ -1641,20 +1656,13 @@ class Tracker:
         hc = self.config.heading_check
         if hc.sustained_s <= 0:
             return False
-        path = np.array([*self._path, self._path_entry(time_s, pose)])
-        path = path[path[:, 0] >= time_s - hc.sustained_s - 1e-9]
         off = {}
-        for source, cols in (("silhouette", [0, 3, 4]), ("estimate", [0, 1, 2])):
-            p = path[:, cols]
-            p = p[np.isfinite(p[:, 1])]  # frames without a floor point
+        for source in ("silhouette", "estimate"):
+            p = self._recent_path(pose, time_s, hc.sustained_s, source)
             off[source] = None
             if p.shape[0] < hc.min_frames or p[-1, 0] - p[0, 0] < 0.9 * hc.sustained_s - 1e-9:
                 continue
-            t = p[:, 0] - p[:, 0].mean()
-            xy = p[:, 1:] - p[:, 1:].mean(axis=0)
-            fit = (t @ xy) / (t @ t)
-            scatter = float((xy**2).sum())
-            resid = float(((xy - np.outer(t, fit)) ** 2).sum())
+            fit, resid, scatter = _path_fit(p)
             if np.hypot(*fit) < hc.min_speed_m_s or not resid <= 0.5 * scatter:
                 continue
             travel = np.arctan2(*(self._time_sign * fit)[::-1])
