@@ -664,7 +664,7 @@ def track(
     )
     from tracker.output import written_keypoints
     from tracker.revision import ResultQueue
-    from tracker.smoothing import RESTART_STATUSES
+    from tracker.smoothing import RESTART_STATUSES, single_camera_eye
 
     out_f, out_t, joints, times_ms, ev_tr, ev_init, statuses = [], [], [], [], [], [], []
     restarts: list[bool] = []
@@ -721,6 +721,7 @@ def track(
             fps,
             np.array(restarts),
             frames=np.array(out_f),
+            eye=single_camera_eye(cams),
         )
         est = Trajectory(positions=smoothed, times=np.array(out_t), frames=out_f, fps=fps)
     else:

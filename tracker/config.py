@@ -1157,6 +1157,21 @@ class SmoothingConfig(_Model):
     max_gap_s: Annotated[
         float, Field(gt=0, le=10, description="A longer step between two frames ends a segment")
     ] = 0.5
+    depth_window_s: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=5,
+            description="With one camera: the body's distance from it (its key points' centroid "
+            "along the horizontal line of sight) is fitted over this longer window and each "
+            "frame's key points are moved along the line of sight onto the fit; one view "
+            "observes that distance worst. The output then lags by half of this window if it "
+            "is the longer. 0: off",
+        ),
+    ] = 0.75
+    depth_order: Annotated[
+        int, Field(ge=0, le=4, description="Polynomial order of the distance's fit")
+    ] = 1
 
 
 class LegLabelConfig(_Model):

@@ -19,9 +19,12 @@ def written_keypoints(
     fps: float,
     restarts: np.ndarray | None = None,
     frames: np.ndarray | None = None,
+    eye: np.ndarray | None = None,
 ) -> np.ndarray:
     """``joints`` (T, 19, 3) of the frames with a pose at ``times`` (T,) -> the written (T, 19,
-    3), with ``config.leg_labels`` and ``config.smoothing``; ``restarts`` and ``frames`` as in
+    3), with ``config.leg_labels`` and ``config.smoothing``; ``restarts``, ``frames`` and
+    ``eye`` (the camera's centre when one camera sees the person,
+    :func:`tracker.smoothing.single_camera_eye`) as in
     :func:`tracker.smoothing.smooth_keypoints`."""
     labelled, _ = relabel_legs(times, joints, config.leg_labels, fps, restarts, frames)
-    return smooth_keypoints(times, labelled, config.smoothing, fps, restarts, frames)
+    return smooth_keypoints(times, labelled, config.smoothing, fps, restarts, frames, eye)

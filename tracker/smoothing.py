@@ -19,6 +19,13 @@ Segments: only frames of one continuous track are fitted together. A frame witho
 a segment's end is fitted on the frames of its segment that are in its window (a lower order
 when there are few), a segment of one frame is left as it is.
 
+Depth through one camera (``eye``, the camera's centre, given only when one camera sees the
+person): a single view fixes where the body is across the image far better than how far it is
+from the camera, and the filter's depth jitters from frame to frame. The distance of the key
+points' centroid from the camera, along the horizontal line of sight, is fitted over a longer
+window (``depth_window``, ``depth_order``) and each frame's key points move together along that
+line onto the fit (after their own fit): the limbs keep their motion relative to the body.
+
 Only the key points are smoothed; the pose vector and weight stay the tracker's own.
 """
 
@@ -99,14 +106,28 @@ class KeypointSmoother:
     feet_order : int, optional
         Polynomial order (0-4) for the ankles, heels and toes of 19-point frames (:data:`FEET`);
         None: ``order``.
+    eye : array (3,), optional
+        The one camera's centre (world, metres): the frames' distance from it along the
+        horizontal line of sight is fitted over ``depth_window`` frames (odd) with
+        ``depth_order`` (see the module docstring). None, or a window of 1: no depth stage.
     """
 
     def __init__(
-        self, window: int, order: int = 2, max_gap_s: float = 0.5, feet_order: int | None = None
+        self,
+        window: int,
+        order: int = 2,
+        max_gap_s: float = 0.5,
+        feet_order: int | None = None,
+        *,
+        eye: np.ndarray | None = None,
+        depth_window: int = 1,
+        depth_order: int = 1,
     ) -> None:
-        if window < 1 or window % 2 == 0:
-            raise ValueError(f"window must be an odd number of frames >= 1, not {window}")
-        for name, value in (("order", order), ("feet_order", feet_order)):
+        for name, value in (("window", window), ("depth_window", depth_window)):
+            if value < 1 or value % 2 == 0:
+                raise ValueError(f"{name} must be an odd number of frames >= 1, not {value}")
+        orders = (("order", order), ("feet_order", feet_order), ("depth_order", depth_order))
+        for name, value in orders:
             if value is not None and not 0 <= value <= 4:
                 raise ValueError(f"{name} must be 0 to 4, not {value}")
         self.window = int(window)
@@ -114,16 +135,38 @@ class KeypointSmoother:
         self.order = int(order)
         self.feet_order = self.order if feet_order is None else int(feet_order)
         self.max_gap_s = float(max_gap_s)
+        self.eye = None
+        if eye is not None and depth_window > 1:
+            self.eye = np.asarray(eye, dtype=np.float64).reshape(3)
+            if not np.isfinite(self.eye).all():
+                raise ValueError(f"eye must be a finite point, not {eye}")
+        self.depth_half = int(depth_window) // 2 if self.eye is not None else 0
+        self.depth_order = int(depth_order)
+        #: Frames a frame waits for (the longer of the two half windows).
+        self.lag = max(self.half, self.depth_half)
         #: Frames not yet returned (oldest first); the segment's earlier frames kept for fits.
         self._pending: deque[SmoothedFrame] = deque()
-        self._history: deque[SmoothedFrame] = deque(maxlen=self.half)
+        self._history: deque[SmoothedFrame] = deque(maxlen=self.lag)
         self._weights: dict[tuple, np.ndarray] = {}
 
     @classmethod
-    def from_config(cls, config: SmoothingConfig, fps: float) -> KeypointSmoother:
-        """The smoother of ``config`` at frame rate ``fps`` (window 1 when disabled)."""
-        window = window_frames(config.window_s, fps) if config.enabled else 1
-        return cls(window, config.order, config.max_gap_s, config.feet_order)
+    def from_config(
+        cls, config: SmoothingConfig, fps: float, eye: np.ndarray | None = None
+    ) -> KeypointSmoother:
+        """The smoother of ``config`` at frame rate ``fps`` (window 1 when disabled); ``eye``
+        the camera's centre when one camera sees the person (:func:`single_camera_eye`)."""
+        on = config.enabled
+        window = window_frames(config.window_s, fps) if on else 1
+        depth = window_frames(config.depth_window_s, fps) if on and config.depth_window_s else 1
+        return cls(
+            window,
+            config.order,
+            config.max_gap_s,
+            config.feet_order,
+            eye=eye,
+            depth_window=depth,
+            depth_order=config.depth_order,
+        )
 
     # -- stream -----------------------------------------------------------------------------
     def push(
@@ -163,31 +206,56 @@ class KeypointSmoother:
         )
 
     def _ready(self) -> bool:
-        # the oldest pending frame has its whole window (half a window of later frames)
-        return len(self._pending) > self.half
+        # the oldest pending frame has its whole windows (half a window of later frames)
+        return len(self._pending) > self.lag
 
     def _emit(self) -> SmoothedFrame:
         frame = self._pending[0]
-        if frame.joints is not None and self.window > 1:
-            before = list(self._history)
+        if frame.joints is not None and self.lag > 0:
+            history = list(self._history)
             after = []
-            for f in list(self._pending)[1 : self.half + 1]:
+            for f in list(self._pending)[1 : self.lag + 1]:
                 if f.raw is None or f.restart:
                     break
                 after.append(f)
-            seg = [*before, frame, *after]
-            if len(seg) > 1:
-                t = np.array([f.time_s for f in seg])
-                v = np.stack([f.raw for f in seg])
-                frame.joints = self._fit(t, v, frame.time_s, self.order)
-                if self.feet_order != self.order and v.shape[1] == len(KEYPOINTS):
-                    frame.joints[FEET] = self._fit(t, v[:, FEET], frame.time_s, self.feet_order)
+            if self.half > 0:
+                seg = [*history[max(0, len(history) - self.half) :], frame, *after[: self.half]]
+                if len(seg) > 1:
+                    t = np.array([f.time_s for f in seg])
+                    v = np.stack([f.raw for f in seg])
+                    frame.joints = self._fit(t, v, frame.time_s, self.order)
+                    if self.feet_order != self.order and v.shape[1] == len(KEYPOINTS):
+                        frame.joints[FEET] = self._fit(t, v[:, FEET], frame.time_s, self.feet_order)
+            if self.depth_half > 0:
+                seg = [
+                    *history[max(0, len(history) - self.depth_half) :],
+                    frame,
+                    *after[: self.depth_half],
+                ]
+                if len(seg) > 1:
+                    frame.joints = self._depth_fit(seg, frame)
         self._pending.popleft()
         if frame.joints is None:
             self._history.clear()
         else:
             self._history.append(frame)
         return frame
+
+    def _depth_fit(self, seg: list[SmoothedFrame], frame: SmoothedFrame) -> np.ndarray:
+        """``frame``'s key points moved along the horizontal line of sight from :attr:`eye`
+        so that their centroid's distance is the fit over ``seg`` of the raw centroids'."""
+        assert self.eye is not None and frame.joints is not None
+        eye = self.eye[:2]
+        t = np.array([f.time_s for f in seg])
+        dist = np.array([np.linalg.norm(f.raw[:, :2].mean(axis=0) - eye) for f in seg])
+        target = float(self._fit(t, dist, frame.time_s, self.depth_order))
+        offset = frame.joints[:, :2].mean(axis=0) - eye
+        now = float(np.linalg.norm(offset))
+        if not (now > 1e-6 and np.isfinite(target)):
+            return frame.joints
+        out = frame.joints.copy()
+        out[:, :2] += (target - now) * offset / now
+        return out
 
     def _fit(self, t: np.ndarray, v: np.ndarray, at: float, order: int) -> np.ndarray:
         """:func:`local_fit` with the weights cached per (order, frame times relative to
@@ -209,6 +277,13 @@ class KeypointSmoother:
         return out
 
 
+def single_camera_eye(cameras) -> np.ndarray | None:
+    """The centre (3,) of the one camera in ``cameras`` (each with a ``center``), or None
+    with two or more: then the cameras fix the depth and the depth stage stays off."""
+    cams = list(cameras)
+    return np.asarray(cams[0].center, dtype=np.float64) if len(cams) == 1 else None
+
+
 def segment_starts(
     n: int, restarts: np.ndarray | None = None, frames: np.ndarray | None = None
 ) -> np.ndarray:
@@ -228,12 +303,13 @@ def smooth_keypoints(
     fps: float,
     restarts: np.ndarray | None = None,
     frames: np.ndarray | None = None,
+    eye: np.ndarray | None = None,
 ) -> np.ndarray:
     """The whole-footage form: ``joints`` (T, K, 3) of frames with a pose at ``times`` (T,),
     ``restarts`` (T,) True where a track starts; ``frames`` (T,) their frame numbers, a frame
     that does not follow the previous one (a frame without a pose between them) also starts a
-    segment. Returns the smoothed (T, K, 3)."""
-    sm = KeypointSmoother.from_config(config, fps)
+    segment; ``eye`` as in :class:`KeypointSmoother`. Returns the smoothed (T, K, 3)."""
+    sm = KeypointSmoother.from_config(config, fps, eye)
     out: list[np.ndarray] = []
     for t, j, r in zip(times, joints, segment_starts(len(times), restarts, frames), strict=True):
         out += [f.joints for f in sm.push(float(t), j, restart=bool(r))]

@@ -159,7 +159,7 @@ def tracker_callable(seed: int = 0):
     from tracker.output import written_keypoints
     from tracker.pipeline import Tracker
     from tracker.revision import ResultQueue
-    from tracker.smoothing import RESTART_STATUSES
+    from tracker.smoothing import RESTART_STATUSES, single_camera_eye
 
     def track(clip) -> Trajectory:
         tracker = Tracker(
@@ -190,6 +190,7 @@ def tracker_callable(seed: int = 0):
             clip.fps,
             np.array(restarts),
             frames=np.array(frames),
+            eye=single_camera_eye(clip.cameras),
         )
         return Trajectory(positions=smoothed, times=np.array(times), frames=frames)
 

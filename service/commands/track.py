@@ -190,7 +190,7 @@ def run(args: argparse.Namespace) -> int:
     from tracker.leglabels import LegRelabeller
     from tracker.pipeline import Tracker
     from tracker.revision import ResultQueue
-    from tracker.smoothing import RESTART_STATUSES, KeypointSmoother
+    from tracker.smoothing import RESTART_STATUSES, KeypointSmoother, single_camera_eye
 
     if not (0.5 <= args.height <= 2.5):
         raise TrackArgumentError(f"--height must be between 0.5 and 2.5 metres, not {args.height}")
@@ -247,7 +247,9 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     n_pose = n_none = 0
     relabeller = LegRelabeller.from_config(config.leg_labels, cameras[0].fps)
-    smoother = KeypointSmoother.from_config(config.smoothing, cameras[0].fps)
+    smoother = KeypointSmoother.from_config(
+        config.smoothing, cameras[0].fps, single_camera_eye(cameras)
+    )
     queue = ResultQueue()  # results still open to the backward pass (config.revise)
     t0 = time.perf_counter()
     with (
