@@ -57,6 +57,8 @@ class SmoothedFrame:
     item: Any = None
     restart: bool = False
     raw: np.ndarray | None = field(default=None, repr=False)
+    #: The raw key points' centroid's horizontal distance from the depth stage's eye.
+    distance: float = field(default=float("nan"), repr=False)
 
 
 def window_frames(window_s: float, fps: float) -> int:
@@ -179,6 +181,8 @@ class KeypointSmoother:
         """
         j = None if joints is None else np.array(joints, dtype=np.float64)
         frame = SmoothedFrame(float(time_s), j, item, bool(restart), raw=j)
+        if j is not None and self.eye is not None:
+            frame.distance = float(np.hypot(*(j[:, :2].mean(axis=0) - self.eye[:2])))
         out: list[SmoothedFrame] = []
         if self._pending and self._breaks(self._pending[-1], frame):
             out += self._drain()
@@ -247,7 +251,7 @@ class KeypointSmoother:
         assert self.eye is not None and frame.joints is not None
         eye = self.eye[:2]
         t = np.array([f.time_s for f in seg])
-        dist = np.array([np.linalg.norm(f.raw[:, :2].mean(axis=0) - eye) for f in seg])
+        dist = np.array([f.distance for f in seg])
         target = float(self._fit(t, dist, frame.time_s, self.depth_order))
         offset = frame.joints[:, :2].mean(axis=0) - eye
         now = float(np.linalg.norm(offset))
