@@ -1228,7 +1228,15 @@ def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float
     tcfg = load_tracker_config(args.config) if args.config else TrackerConfig()
     sm, rv = tcfg.smoothing, tcfg.revise
     feet = f", the feet's order {sm.feet_order}" if sm.feet_order not in (None, sm.order) else ""
-    smoothing_text = f"{sm.window_s} s window, order {sm.order}{feet}" if sm.enabled else "off"
+    depth = (
+        f"; with one camera the distance from it fitted over {sm.depth_window_s} s, order "
+        f"{sm.depth_order}"
+        if sm.depth_window_s
+        else ""
+    )
+    smoothing_text = (
+        f"{sm.window_s} s window, order {sm.order}{feet}{depth}" if sm.enabled else "off"
+    )
     lg = tcfg.leg_labels
     legs_text = f"decided {lg.lag_s} s later" if lg.enabled else "off"
     revise_text = f"settled after {rv.settle_s} s" if rv.enabled else "off"
