@@ -693,6 +693,46 @@ def test_track_cli_round_trip_and_seed(clip: dict, tmp_path: Path, capsys) -> No
     assert err.mean() < 0.15
 
 
+def test_track_cli_one_camera_writes_the_depth_stage(clip: dict, tmp_path: Path, capsys) -> None:
+    """Through one camera `gaitwatch track` fits the body's distance from it over the longer
+    window (tracker.smoothing, depth stage): its stream writes what the whole-footage form
+    makes of the unsmoothed key points, and without the stage each frame differs by one
+    horizontal move along that camera's line of sight."""
+    from tracker.config import SmoothingConfig
+    from tracker.smoothing import smooth_keypoints
+
+    one = {
+        "folders": [clip["folders"][0]],
+        "cams": [clip["cam_files"][0]],
+        "bgs": False,
+    }
+    common = ["--background", str(clip["bg_files"][0]), "--seed", "2", "--max-frames", "12"]
+    common += ["--particles", "729"]
+    off_cfg = tmp_path / "off.toml"
+    off_cfg.write_text("[smoothing]\ndepth_window_s = 0.0\n")
+    logs = {}
+    for name, extra in (
+        ("on", []),
+        ("off", ["--config", str(off_cfg)]),
+        ("raw", ["--no-smoothing"]),
+    ):
+        out = tmp_path / f"{name}.mcap"
+        assert main(_args(clip, out, *common, *extra, **one)) == 0, capsys.readouterr().err
+        logs[name] = read_poselog(out)
+    on, off, raw = logs["on"], logs["off"], logs["raw"]
+    assert np.array_equal(on.dofs, off.dofs) and np.array_equal(on.dofs, raw.dofs)
+    eye = np.asarray(clip["cams"][0].center)
+    again = smooth_keypoints(
+        raw.trajectory.times, raw.trajectory.positions, SmoothingConfig(), FPS, eye=eye
+    )
+    np.testing.assert_allclose(on.trajectory.positions, again, atol=1e-9)
+    move = on.trajectory.positions - off.trajectory.positions
+    assert np.abs(move).max() > 1e-4  # the stage moved the frames
+    assert np.allclose(move, move[:, :1], atol=1e-9) and np.allclose(move[..., 2], 0.0)
+    sight = off.trajectory.positions.mean(axis=1)[:, :2] - eye[:2]
+    assert np.allclose(move[:, 0, 0] * sight[:, 1] - move[:, 0, 1] * sight[:, 0], 0.0, atol=1e-9)
+
+
 @pytest.mark.parametrize("name", ["apf", "condensation"])
 def test_track_cli_baselines(clip: dict, tmp_path: Path, name: str) -> None:
     out = tmp_path / "p.mcap"
