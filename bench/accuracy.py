@@ -389,7 +389,13 @@ ONE_COLOUR = (85, 90, 100)  # RGB of --one-colour's clothes (a dull blue-grey)
 
 
 def build(
-    name: str, view: ViewSpec, max_frames: int, seed: int, data: Path, one_colour: bool = False
+    name: str,
+    view: ViewSpec,
+    max_frames: int,
+    seed: int,
+    data: Path,
+    one_colour: bool = False,
+    fps: float = 20.0,
 ):
     from gaitwatch.sim.scene import BodyShape, Clothing, Room, SceneConfig
     from gaitwatch.sim.synth import build_scene
@@ -408,7 +414,7 @@ def build(
     )
     cfg = SceneConfig(
         views=list(view.views),
-        fps=20.0,
+        fps=fps,
         image_size=(640, 480),
         max_frames=max_frames,
         seed=seed,
@@ -1199,6 +1205,7 @@ def write_json(path: Path, runs: list[Run], argv: list[str], args) -> None:
         "seed": args.seed,
         "tracker_seed": args.tracker_seed,
         "draws": getattr(args, "draws", 1),
+        "fps": getattr(args, "fps", 20.0),
         "config": str(args.config) if args.config else None,
         "runs": [run_record(r) for r in runs],
     }
@@ -1256,7 +1263,7 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
 - Date: {datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")}; commit {commit}
 - Machine: {environment()};
   load average at the end {load[0]:.1f} (shared with other jobs: ms/frame is indicative)
-- Footage: 640x480 at 20 fps, {
+- Footage: 640x480 at {args.fps:g} fps, {
         "rendered frames tracked directly (no codec)"
         if args.direct
         else "mp4v video written and decoded"
@@ -1347,6 +1354,13 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help=f"comma list among {', '.join(ALL_FILTERS)} (default: the three filters)",
     )
     ap.add_argument("--max-frames", type=int, default=None, help="frames per scene (default 40)")
+    ap.add_argument(
+        "--fps",
+        type=float,
+        default=20.0,
+        help="the footage's frame rate (default 20; the recordings are resampled to it, so "
+        "give --max-frames in proportion to keep the clips' duration)",
+    )
     ap.add_argument("--seed", type=int, default=0, help="scene seed (and tracker seed)")
     ap.add_argument(
         "--draws",
@@ -1395,6 +1409,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     args = ap.parse_args(argv)
     if not 1 <= args.draws <= 100:
         ap.error(f"--draws must be within 1..100, not {args.draws}")
+    if not 1.0 <= args.fps <= 240.0:
+        ap.error(f"--fps must be within 1..240, not {args.fps:g}")
     if args.max_frames is None:
         args.max_frames = 12 if args.quick else 40
     if args.tracker_seed is None:
@@ -1448,7 +1464,7 @@ def main(argv: list[str] | None = None) -> int:
             (d, p) for d in draws for p in plan
         ):
             bar.set_description(f"{rec} {view.label}: rendering")
-            scene = build(rec, view, args.max_frames, seed, args.data, args.one_colour)
+            scene = build(rec, view, args.max_frames, seed, args.data, args.one_colour, args.fps)
             frames, masks, bgs, cams, truth = scene_frames(
                 scene, args.direct, Path(tmpd) / f"s{si}"
             )

@@ -101,3 +101,24 @@ def test_scene_cameras_at_the_requested_height(accuracy):
     assert low.config.hfov_deg == 90.0
     # Same walk, other cameras: the truth does not depend on the placement.
     assert np.array_equal(low.truth.positions, default.truth.positions)
+
+
+def test_scene_at_another_frame_rate(accuracy):
+    """--fps resamples the same walk: at 30 fps, 60 frames cover the 2 s that 40 cover at 20."""
+    if not (accuracy.DATA / accuracy.RECORDINGS["07_06"].path).is_file():
+        pytest.skip(f"shared recordings not found under {accuracy.DATA}")
+    view = accuracy.ViewSpec.parse("oblique")
+    at20 = accuracy.build("07_06", view, 40, 0, accuracy.DATA)
+    at30 = accuracy.build("07_06", view, 60, 0, accuracy.DATA, fps=30.0)
+    assert at20.config.fps == 20.0 and at30.config.fps == 30.0
+    assert at30.truth.positions.shape == (60, 19, 3)
+    # frame 3k at 30 fps is frame 2k at 20 fps: the same instant of the recording
+    assert np.allclose(at30.truth.positions[::3], at20.truth.positions[::2], atol=1e-9)
+
+
+def test_fps_out_of_range_exits_cleanly(accuracy, capsys):
+    with pytest.raises(SystemExit):
+        accuracy.parse_args(["--fps", "0"])
+    assert "--fps must be within 1..240" in capsys.readouterr().err
+    assert accuracy.parse_args(["--fps", "30"]).fps == 30.0
+    assert accuracy.parse_args([]).fps == 20.0
