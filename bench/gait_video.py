@@ -291,6 +291,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     ap.add_argument(
         "--max-frames", type=int, default=None, help="frames per scene (default: the recording)"
     )
+    ap.add_argument("--fps", type=float, default=20.0, help="the footage's frame rate (default 20)")
     ap.add_argument("--direct", action="store_true", help="track rendered frames (no codec)")
     ap.add_argument(
         "--keep",
@@ -304,6 +305,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         args.tracker_seed = args.seed
     if args.max_frames is not None and args.max_frames < 2:
         ap.error("--max-frames must be at least 2")
+    if not 1.0 <= args.fps <= 240.0:
+        ap.error(f"--fps must be within 1..240, not {args.fps:g}")
     return args
 
 
@@ -336,7 +339,7 @@ def main(argv: list[str] | None = None) -> int:
     bar = tqdm(total=len(plan), unit="scene", file=sys.stderr)
     for rec, view in plan:
         bar.set_description(f"{rec} {view.label}")
-        scene = A.build(rec, view, args.max_frames, args.seed, args.data)
+        scene = A.build(rec, view, args.max_frames, args.seed, args.data, fps=args.fps)
         with tempfile.TemporaryDirectory() as td:
             frames, masks, bgs, cams, truth = A.scene_frames(scene, args.direct, Path(td))
         fps = scene.config.fps

@@ -154,3 +154,11 @@ def test_repeat_reads_kept_folders(gait_repeat, walk, tmp_path):
     assert speed[1].strip() == "walk" and speed[2].strip() == "2"
     assert float(speed[6]) == pytest.approx(5.0, abs=0.5)
     assert float(speed[7]) == pytest.approx(7.07, abs=0.7)
+
+
+def test_fps_option(gait_video, capsys):
+    assert gait_video.parse_args([]).fps == 20.0
+    assert gait_video.parse_args(["--fps", "30"]).fps == 30.0
+    with pytest.raises(SystemExit):
+        gait_video.parse_args(["--fps", "500"])
+    assert "--fps must be within 1..240" in capsys.readouterr().err
