@@ -180,3 +180,45 @@ def test_a_crouched_walker_is_found_facing_forwards() -> None:
     assert off < 45.0, f"heading {off:.0f} deg off"
     err = np.linalg.norm(res.joints - scene.truth.positions[k], axis=1).mean()
     assert err < 0.12, f"first-frame error {err:.3f} m"
+
+
+@pytest.mark.parametrize(("fps", "frames"), [(20.0, 10), (30.0, 15)])
+def test_shape_windows_cover_the_same_time_at_any_frame_rate(fps, frames, caplog) -> None:
+    """``init.girth_frames`` (5), ``init.part_girth_frames`` and ``init.leg_length_frames`` (10)
+    are frames at 20 Hz: at 30 fps the girth is scored over 8 frames and the part factors and
+    the leg length over 15 tracked frames, the same time of the walk, and each is fixed on the
+    last of its frames."""
+    import logging
+
+    from tracker.likelihood import SilhouetteLikelihood
+    from tracker.pipeline import Tracker, frames_at_rate
+    from tracker.synthetic import render_clip, side_cameras, textured_background, walking_motion
+
+    assert frames_at_rate(10, 0.05, 1.0 / fps) == frames
+    rng = np.random.default_rng(5)
+    body = BodyModel(1.70)
+    cams = side_cameras(2, image_size=(160, 120), fps=fps)
+    poses = walking_motion(body, frames + 3, fps=fps, speed_m_s=1.0)
+    bgs = [textured_background(160, 120, rng) for _ in cams]
+    clip = list(render_clip(SilhouetteLikelihood(body, cams), poses, bgs, rng))
+    cfg = TrackerConfig.model_validate({"init": {"part_girths": [0.9, 1.0], "hems": []}})
+    tracker = Tracker(cams, cfg, rng=np.random.default_rng(0), height_m=1.70, backgrounds=bgs)
+    fixed: dict[str, int] = {}
+    with caplog.at_level(logging.INFO, logger="tracker.pipeline"):
+        for k, images in enumerate(clip):
+            caplog.clear()
+            res = tracker.process(k, k / fps, images)
+            assert res.has_pose
+            for rec in caplog.records:
+                msg = rec.getMessage()
+                for key, text in (
+                    ("girth", "body girth"),
+                    ("parts", "body part girths"),
+                    ("legs", "relative leg length"),
+                ):
+                    if text in msg:
+                        fixed[key] = k
+    # frame 0 initialises; the girth counts from it (5 frames at 20 Hz), the part factors and
+    # the leg length count tracked frames from frame 1
+    girth = frames_at_rate(5, 0.05, 1.0 / fps)
+    assert fixed == {"girth": girth - 1, "parts": frames, "legs": frames}

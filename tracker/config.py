@@ -6,7 +6,9 @@ error). Angles are given in degrees and distances in metres, like the joint-limi
 noise sigmas, search ranges) are stated for 20 Hz footage (``reference_dt_s = 0.05``) and scaled
 with the actual frame interval: widths and ranges linearly with ``dt / 0.05``, diffusion sigmas
 with ``sqrt(dt / 0.05)`` for the random-walk filters and linearly for IPF (as the method scales
-its intervals).
+its intervals). The body-shape windows (``init.girth_frames``, ``part_girth_frames``,
+``leg_length_frames``) are counted in frames at 20 Hz too and cover the same time at the cameras'
+frame rate; the other frame counts are frames of the footage as it comes.
 
 Defaults follow issue 3: IPF with M = 81 kept particles, q = 3 grid values over an interval of
 10 degrees on the n = 4 "interesting" DOFs (both hips' and both knees' flexion), i.e. 6561
@@ -360,7 +362,8 @@ class InitConfig(_Model):
             ge=1,
             le=1000,
             description="Frames over which the girths are scored on the refined particles "
-            "(after the first initialisation's choice); then the girth is fixed",
+            "(after the first initialisation's choice); then the girth is fixed. Frames at "
+            "20 Hz (reference_dt_s): the same time at the cameras' frame rate",
         ),
     ] = 5
     part_girths: Annotated[
@@ -409,7 +412,8 @@ class InitConfig(_Model):
             ge=1,
             le=1000,
             description="Frames over which the part factors are scored (from the first tracked "
-            "frame); then they are fixed",
+            "frame); then they are fixed. Frames at 20 Hz (reference_dt_s): the same time at "
+            "the cameras' frame rate",
         ),
     ] = 10
     leg_lengths: Annotated[
@@ -441,7 +445,8 @@ class InitConfig(_Model):
             ge=1,
             le=1000,
             description="Frames over which the leg lengths are scored (from the first tracked "
-            "frame); then the leg length is fixed",
+            "frame); then the leg length is fixed. Frames at 20 Hz (reference_dt_s): the same "
+            "time at the cameras' frame rate",
         ),
     ] = 10
 

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import copy
 import logging
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -283,6 +284,15 @@ class _CountingLikelihood:
         return self.inner.weights_moving(base, poses, capsules)
 
 
+def frames_at_rate(frames: int, reference_dt: float, dt: float) -> int:
+    """``frames`` stated at the reference frame interval (20 Hz), as a count of frames of
+    interval ``dt`` covering the same time (halves rounded up; at least 1): 10 frames at 20 Hz
+    are 15 at 30 Hz, 13 at 25 Hz and 6 at 12.5 Hz."""
+    if not (dt > 0 and reference_dt > 0):
+        raise ValueError(f"frame intervals must be positive, not {reference_dt} and {dt}")
+    return max(1, math.floor(frames * reference_dt / dt + 0.5))
+
+
 class Tracker:
     """Markerless tracking of one person from synchronised cameras.
 
@@ -450,9 +460,18 @@ class Tracker:
         self._heading_checked_until = -np.inf
         #: The opposite heading hypothesis after an initialisation (init.both_headings).
         self._alt: _Hypothesis | None = None
-        self._girth_frames_left = c.init.girth_frames
-        self._part_frames_left = c.init.part_girth_frames
-        self._leg_frames_left = c.init.leg_length_frames
+        # The shape windows are counted in frames at 20 Hz (config.reference_dt_s): the same
+        # time at the cameras' frame rate, so faster footage scores its shape over as much of
+        # the walk (docs/tracker.md, "Other frame rates").
+        self._girth_frames_left = frames_at_rate(
+            c.init.girth_frames, c.reference_dt_s, self.dt_default
+        )
+        self._part_frames_left = frames_at_rate(
+            c.init.part_girth_frames, c.reference_dt_s, self.dt_default
+        )
+        self._leg_frames_left = frames_at_rate(
+            c.init.leg_length_frames, c.reference_dt_s, self.dt_default
+        )
         self._masks: list[np.ndarray] = []
         self._tracked_frames = 0
         #: Weights of the estimates at the last re-detection points; skipped frames in a row.
