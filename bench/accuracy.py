@@ -44,6 +44,7 @@ Run::
     python3 bench/accuracy.py --draws 3             # scene seeds 0, 1, 2 (about 25 min)
     python3 bench/accuracy.py --recordings 07_06,rajagopal --views oblique,side+frontal \\
         --filters ipf --max-frames 30 --overlays /tmp/overlays --out /tmp/RESULTS.md
+    python3 bench/accuracy.py --fps 30 --max-frames 60 --no-out   # the same 2 s clips at 30 fps
 
 ``--filters`` also accepts non-default variants for experiments: ``ipf-published`` (the method
 as published: intervals centred on the particle's value, fixed width, one pass, the M heaviest
