@@ -435,6 +435,17 @@ class SyncedVideos:
                 "the videos have different frame rates (%s): frames are paired by number",
                 ", ".join(f"{s.path.name}: {s.fps:g}" for s in self.sources if s.fps),
             )
+        for src, cam in zip(self.sources, cameras or [], strict=False):
+            if src.fps and cam.fps and abs(src.fps - cam.fps) > 0.01 * cam.fps:
+                log.warning(
+                    "%s runs at %g fps but its camera file says %g: the frame times follow the "
+                    "video, the tracker's windows counted in frames and the output stages "
+                    "follow the camera file; set fps: %g in the camera file",
+                    src.path.name,
+                    src.fps,
+                    cam.fps,
+                    src.fps,
+                )
 
     @property
     def frame_count(self) -> int | None:

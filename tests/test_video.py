@@ -244,3 +244,16 @@ def test_real_footage_first_frames(shared_data: Path) -> None:
             if i == 9:
                 break
     np.testing.assert_allclose(times, np.arange(10) / 30.0, atol=1e-3)
+
+
+def test_video_rate_unlike_the_camera_files_is_warned(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    v = _write_video(tmp_path / "a.avi", 3, fps=30.0)
+    with caplog.at_level(logging.WARNING), open_videos([v], [_cam(fps=20.0)]) as vids:
+        assert vids.sources[0].fps == pytest.approx(30.0)
+    assert "a.avi runs at 30 fps but its camera file says 20" in caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.WARNING), open_videos([v], [_cam(fps=30.0)]):
+        pass
+    assert "camera file says" not in caplog.text

@@ -462,7 +462,7 @@ class Tracker:
         self._alt: _Hypothesis | None = None
         # The shape windows are counted in frames at 20 Hz (config.reference_dt_s): the same
         # time at the cameras' frame rate, so faster footage scores its shape over as much of
-        # the walk (docs/tracker.md, "Other frame rates").
+        # the walk (docs/tracker.md, "Session 29").
         self._girth_frames_left = frames_at_rate(
             c.init.girth_frames, c.reference_dt_s, self.dt_default
         )
