@@ -658,10 +658,10 @@ def track(
     settings: dict | None = None,
     occluders=None,
 ):
-    from tracker.pipeline import Tracker
+    from tracker.ensemble import make_tracker
 
     cfg = variant_config(filt, settings)
-    tr = Tracker(
+    tr = make_tracker(
         cams,
         cfg,
         rng=np.random.default_rng(seed),
@@ -737,7 +737,7 @@ def track(
         "ms": float(statistics.median(times_ms)) if times_ms else math.nan,
         "evals_tracked": float(statistics.median(ev_tr)) if ev_tr else math.nan,
         "evals_init": float(statistics.median(ev_init)) if ev_init else math.nan,
-        "filter_evaluations": int(tr.filter.evaluations_per_step),
+        "filter_evaluations": int(tr.evaluations_per_step),
         "reinits": sum(s == "reinitialised" for s in statuses),
         "seg_iou": float(np.nanmean(seg_iou)) if seg_iou else math.nan,
         "est_iou": float(np.nanmean(est_iou)) if est_iou else math.nan,

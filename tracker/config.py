@@ -1179,6 +1179,28 @@ class SmoothingConfig(_Model):
     ] = 1
 
 
+class EnsembleConfig(_Model):
+    """Several independent tracks of the same footage, their key points averaged
+    (:mod:`tracker.ensemble`).
+
+    Each track is a whole :class:`tracker.pipeline.Tracker` with its own random draws, on the
+    same silhouettes, and gets ``1 / tracks`` of the filter's likelihood evaluations (the IPF's
+    ``kept``, or ``evaluations``, divided), so the filters stay at equal evaluations among
+    themselves. The tracks go astray in different frames and in different ways (a leg half a
+    cycle behind, the body too near the camera), so their mean errs less than any one of them.
+    """
+
+    tracks: Annotated[
+        int,
+        Field(
+            ge=1,
+            le=8,
+            description="Independent tracks whose key points are averaged (1: one tracker, "
+            "no averaging)",
+        ),
+    ] = 1
+
+
 class LegLabelConfig(_Model):
     """Which leg is which in the key points written by ``gaitwatch track``
     (:mod:`tracker.leglabels`): each frame keeps the tracker's labels or has the legs' key
@@ -1280,6 +1302,7 @@ class TrackerConfig(_Model):
     ] = None
     origin: OriginSearchConfig = Field(default_factory=OriginSearchConfig)
     init: InitConfig = Field(default_factory=InitConfig)
+    ensemble: EnsembleConfig = Field(default_factory=EnsembleConfig)
     leg_labels: LegLabelConfig = Field(default_factory=LegLabelConfig)
     smoothing: SmoothingConfig = Field(default_factory=SmoothingConfig)
     revise: ReviseConfig = Field(default_factory=ReviseConfig)

@@ -538,6 +538,11 @@ class Tracker:
             return res
 
     @property
+    def evaluations_per_step(self) -> int:
+        """The filter's likelihood evaluations per frame (:attr:`Filter.evaluations_per_step`)."""
+        return int(self.filter.evaluations_per_step)
+
+    @property
     def pending_from(self) -> int | None:
         """The oldest frame whose result a later frame may still revise (``config.revise``),
         or None: results of frames before it are final."""

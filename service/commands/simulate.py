@@ -156,13 +156,13 @@ def tracker_callable(seed: int = 0):
     (``tracker.pipeline.Tracker``) on a rendered clip, given the empty-scene backgrounds and the
     true stature."""
     from gaitwatch.trajectory import Trajectory
+    from tracker.ensemble import make_tracker
     from tracker.output import written_keypoints
-    from tracker.pipeline import Tracker
     from tracker.revision import ResultQueue
     from tracker.smoothing import RESTART_STATUSES, single_camera_eye
 
     def track(clip) -> Trajectory:
-        tracker = Tracker(
+        tracker = make_tracker(
             clip.cameras,
             rng=np.random.default_rng(seed),
             height_m=float(clip.scene.body.stature_m),

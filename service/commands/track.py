@@ -6,7 +6,7 @@
                     [--height METRES] [--background IMAGE ...] [--filter ipf|apf|condensation]
                     [--seed N] --out POSES.mcap
                     [--occluder MASK|none ...] [--config TRACKER.toml|yaml]
-                    [--particles N] [--max-frames N]
+                    [--particles N] [--tracks N] [--max-frames N]
                     [--segmentation static|mog2|knn] [--threads N] [--allow-length-mismatch]
                     [--no-smoothing] [--no-revise]
 
@@ -27,6 +27,11 @@ is finalised even when tracking stops on an error (a corrupt frame, videos of di
 so the poses written so far stay readable; the error is then reported on one line and the exit code
 is non-zero. Every random draw comes from one generator seeded by ``--seed``: the same seed gives
 the same poses.
+
+``--tracks N`` runs N independent tracks on the same silhouettes, each with 1/N of the
+evaluations, and writes the mean of their key points (:mod:`tracker.ensemble`): more accurate
+through one camera, about 2.4 times slower with three; the pose vector written is the first
+track's.
 
 ``--occluder`` gives, per camera, an image of the frame's size whose non-zero (white) pixels are
 furniture that can stand between the camera and the person (a table, a sofa's back); ``none``
@@ -97,6 +102,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="N",
         help="likelihood evaluations per frame (IPF keeps M = N // q^n particles; the baselines "
         "use M * q^n)",
+    )
+    p.add_argument(
+        "--tracks",
+        type=int,
+        metavar="N",
+        help="independent tracks whose key points are averaged, sharing the evaluations of "
+        "--particles (settings [ensemble]; docs/tracker.md, 'Several tracks averaged')",
     )
     p.add_argument("--max-frames", type=int, metavar="N", help="stop after N frames")
     p.add_argument(
@@ -172,6 +184,11 @@ def build_config(args: argparse.Namespace) -> TrackerConfig:
         kept = max(1, args.particles // per)
         update["ipf"] = config.ipf.model_copy(update={"kept": kept})
         update["evaluations"] = None
+    tracks = getattr(args, "tracks", None)
+    if tracks is not None:
+        if not 1 <= tracks <= 8:
+            raise TrackArgumentError(f"--tracks must be 1 to 8, not {tracks}")
+        update["ensemble"] = config.ensemble.model_copy(update={"tracks": tracks})
     if update:
         try:
             config = TrackerConfig.model_validate({**config.model_dump(), **update})
@@ -187,8 +204,8 @@ def run(args: argparse.Namespace) -> int:
     from service.prefetch import prefetched
     from service.video import open_videos
     from tracker.camera import load_cameras
+    from tracker.ensemble import make_tracker
     from tracker.leglabels import LegRelabeller
-    from tracker.pipeline import Tracker
     from tracker.revision import ResultQueue
     from tracker.smoothing import RESTART_STATUSES, KeypointSmoother, single_camera_eye
 
@@ -223,7 +240,7 @@ def run(args: argparse.Namespace) -> int:
     )
     rng = np.random.default_rng(args.seed)
     try:
-        tracker = Tracker(
+        tracker = make_tracker(
             cameras,
             config,
             rng=rng,
