@@ -29,9 +29,9 @@ is non-zero. Every random draw comes from one generator seeded by ``--seed``: th
 the same poses.
 
 ``--tracks N`` runs N independent tracks on the same silhouettes, each with 1/N of the
-evaluations, and writes the mean of their key points (:mod:`tracker.ensemble`): more accurate
-through one camera, about 2.4 times slower with three; the pose vector written is the first
-track's.
+evaluations, and writes the mean of their key points (:mod:`tracker.ensemble`): key points more
+accurate through one camera, about 2.4 times slower with three; the pose vector written is the
+first track's.
 
 ``--occluder`` gives, per camera, an image of the frame's size whose non-zero (white) pixels are
 furniture that can stand between the camera and the person (a table, a sofa's back); ``none``
