@@ -30,7 +30,7 @@ the same poses.
 
 ``--tracks N`` runs N independent tracks on the same silhouettes, each with 1/N of the
 evaluations, and writes the mean of their key points (:mod:`tracker.ensemble`): key points more
-accurate through one camera, about 2.4 times slower with three; the pose vector written is the
+accurate, about 1.6 times slower with two and 2.4 with three; the pose vector written is the
 first track's.
 
 ``--occluder`` gives, per camera, an image of the frame's size whose non-zero (white) pixels are
