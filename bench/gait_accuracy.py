@@ -92,7 +92,7 @@ def main() -> None:
     )
     for name, args, belt in RECORDINGS:
         traj = load(a.data, args)
-        cfg = GaitConfig(treadmill_speed_m_s=belt)
+        cfg = GaitConfig(treadmill_speed_m_s=belt, source="markers")  # laboratory markers
         ref = analyse(traj, cfg, events=traj.events)
         fps0 = traj.estimated_fps()
         for cname, sd, fps in CONDITIONS:
@@ -124,7 +124,7 @@ def main() -> None:
     print("joint angles from the key points vs Plug-in Gait (gait-pig.c3d, laboratory strides)")
     path = a.data / "c3d" / "gait-pig.c3d"
     traj = load_mocap(path)
-    rep = analyse(traj, events=traj.events)
+    rep = analyse(traj, GaitConfig(source="markers"), events=traj.events)
     m = read_c3d_markers(path)
     names = [lab.split(":")[-1] for lab in m.labels]
     scale = 1000.0 if np.nanmax(np.abs(m.xyz[:, names.index("LKneeAngles"), 0])) < 2 else 1.0

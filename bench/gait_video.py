@@ -8,7 +8,10 @@ accuracy benchmark (the same scenes, bodies, clothes and cameras: ``accuracy.bui
 the whole recording, tracked by the default tracker (``accuracy.track``: the key points as
 ``gaitwatch track`` writes them, leg labels and smoothing included), and both the tracked key
 points and the true key points at the same frame rate go through ``gait.analysis.analyse`` with
-the same settings. The difference is the error tracking adds to the gait parameters.
+the same settings, except the key points' source: the truth is analysed as laboratory markers
+(``source = "markers"``, the heel-strike calibration chosen against force plates), the tracked
+key points as video (the default). The difference is the error tracking adds to the gait
+parameters.
 
 Per scene it prints the strides found (truth / video), the heel-strike and toe-off timing
 (median absolute and, in brackets, median signed error of the matched events, ms; events of
@@ -120,14 +123,25 @@ def _value(x) -> float:
     return math.nan if x is None else float(x)
 
 
-def compare(truth: Trajectory, video: Trajectory, config: GaitConfig) -> SceneResult:
-    """Gait analysis of both trajectories and their differences (recording and view unset)."""
+def compare(
+    truth: Trajectory,
+    video: Trajectory,
+    config: GaitConfig,
+    reference: GaitConfig | None = None,
+) -> SceneResult:
+    """Gait analysis of both trajectories and their differences (recording and view unset).
+
+    ``config`` analyses the tracked key points; ``reference`` (default: ``config`` with
+    ``source = "markers"``, the calibration for laboratory markers) the true ones.
+    """
     res = SceneResult("", "")
     if len(video) == 0:
         res.error = "no pose"
         return res
     res.all_mm = evaluate(truth, video).mpjpe_mm
-    ref = analyse(truth, config)
+    if reference is None:
+        reference = config.model_copy(update={"source": "markers"})
+    ref = analyse(truth, reference)
     try:
         est = analyse(video, config)
     except GaitInputError as err:
@@ -297,7 +311,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         "--keep",
         type=Path,
         help="write each scene's true and tracked key points here (REC_VIEW_truth.csv, "
-        "REC_VIEW_video.csv; CONVENTIONS JOINTS.csv format, for `gaitwatch gait`)",
+        "REC_VIEW_video.csv; CONVENTIONS JOINTS.csv format, for `gaitwatch gait`; the truth "
+        "with --source markers)",
     )
     A.add_run_args(ap, REPO / "bench" / "GAIT_VIDEO.md", "over the defaults")
     args = ap.parse_args(argv)

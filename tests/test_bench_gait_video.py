@@ -33,8 +33,12 @@ def walk() -> Trajectory:
     return synthetic_walk(speed_m_s=1.2, cadence_steps_min=110.0, n_strides=6, fps=20.0)
 
 
+#: Both sides analysed alike (the true key points' calibration for the video's too).
+SAME = GaitConfig(source="markers")
+
+
 def test_same_trajectory_gives_no_error(gait_video, walk):
-    r = gait_video.compare(walk, walk, GaitConfig())
+    r = gait_video.compare(walk, walk, SAME)
     assert not r.error
     assert r.all_mm == pytest.approx(0.0, abs=1e-9)
     assert r.strides_truth == r.strides_video == r.matched >= 8
@@ -44,6 +48,17 @@ def test_same_trajectory_gives_no_error(gait_video, walk):
     assert all(v == pytest.approx(0.0, abs=1e-9) for v in r.diff.values())
 
 
+def test_truth_is_analysed_as_markers_and_the_video_as_tracked(gait_video, walk):
+    """By default the true key points get the markers' heel-strike calibration and the tracked
+    ones the video's: on the same clean walk only the heel strikes differ (the video's earlier),
+    and an explicit reference config is used as given."""
+    r = gait_video.compare(walk, walk, GaitConfig())
+    assert r.hs_bias_ms < -5.0 and r.to_ms == pytest.approx(0.0, abs=1e-6)
+    assert r.diff["stance"] > 0.5  # earlier heel strikes, same toe offs: longer stance
+    same = gait_video.compare(walk, walk, GaitConfig(), reference=GaitConfig())
+    assert same.hs_ms == pytest.approx(0.0, abs=1e-6)
+
+
 def test_known_scale_error_comes_out(gait_video, walk):
     """Every horizontal distance 10 % longer, timing unchanged: speed, stride length and step
     width +10 %, cadence, stance and knee angles unchanged."""
@@ -51,7 +66,7 @@ def test_known_scale_error_comes_out(gait_video, walk):
     start = pos[0, 2, :2].copy()
     pos[..., :2] = start + 1.1 * (pos[..., :2] - start)
     video = walk.with_positions(pos)
-    r = gait_video.compare(walk, video, GaitConfig())
+    r = gait_video.compare(walk, video, SAME)
     assert r.matched >= 8
     assert r.pct["speed"] == pytest.approx(10.0, abs=0.5)
     assert r.pct["stride length"] == pytest.approx(10.0, abs=0.5)

@@ -124,3 +124,36 @@ def test_pose_log_input(tmp_path: Path, walk: Trajectory, capsys) -> None:
     bad.write_bytes(b"not an mcap file")
     assert main(["gait", str(bad)]) == 2
     assert "MCAP" in capsys.readouterr().err
+    # A pose log is tracked: the laboratory calibration is refused, one line, nothing written.
+    out.unlink()
+    assert main(["gait", str(p), "--source", "markers", "--json", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--source markers" in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_source_option_sets_the_heel_strike_calibration(
+    joints_csv: Path, walk: Trajectory, tmp_path: Path, capsys
+) -> None:
+    """--source markers (a laboratory JOINTS.csv) puts heel strikes later than the default
+    (tracked key points); toe offs do not move."""
+    events = {}
+    for source in ("video", "markers"):
+        out = tmp_path / f"{source}.json"
+        assert main(["gait", str(joints_csv), "--source", source, "--json", str(out)]) == 0
+        events[source] = json.loads(out.read_text())["events"]
+    default = tmp_path / "default.json"
+    assert main(["gait", str(joints_csv), "--json", str(default)]) == 0
+    assert json.loads(default.read_text())["events"] == events["video"]
+
+    def times(source: str, kind: str) -> np.ndarray:
+        return np.array([e["time_s"] for e in events[source] if e["type"] == kind])
+
+    hs_v, hs_m = times("video", "heel_strike"), times("markers", "heel_strike")
+    assert hs_v.size == hs_m.size >= 8
+    assert np.all(hs_m - hs_v > 0.005)
+    np.testing.assert_allclose(times("video", "toe_off"), times("markers", "toe_off"))
+    with pytest.raises(SystemExit) as exc:  # argparse's own usage error
+        main(["gait", str(joints_csv), "--source", "imu"])
+    assert exc.value.code == 2
+    assert "--source: invalid choice: 'imu'" in capsys.readouterr().err

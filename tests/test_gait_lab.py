@@ -21,6 +21,9 @@ from tests.conftest import shared_file
 
 mocap = pytest.importorskip("gaitwatch.mocap", reason="gaitwatch.mocap readers not available")
 
+#: Laboratory markers: the heel-strike calibration chosen against these files' events.
+MARKERS = GaitConfig(source="markers")
+
 # name: (files, treadmill belt speed). 50-60 Hz clinical files and the force-plate walk.
 RECORDINGS = {
     "gait-pig": (("c3d/gait-pig.c3d",), 0.0),
@@ -46,7 +49,7 @@ def _load(shared: Path, name: str):
         files, belt = RECORDINGS[name]
         paths = [shared_file(shared, f) for f in files]
         traj = mocap.load_trc_with_grf(*paths) if len(paths) == 2 else mocap.load_mocap(paths[0])
-        cfg = GaitConfig(treadmill_speed_m_s=belt)
+        cfg = GaitConfig(treadmill_speed_m_s=belt, source="markers")
         ref = analyse(traj, cfg, events=traj.events)
         _cache[name] = (traj, cfg, ref)
     return _cache[name]
@@ -106,7 +109,7 @@ def test_crouch_gait_is_told_apart_from_normal(shared_data: Path) -> None:
 
 def test_sit_down_and_stand_up_twice(shared_data: Path) -> None:
     traj = mocap.load_mocap(shared_file(shared_data, "cmu/75_19.bvh"))
-    rep = analyse(traj)
+    rep = analyse(traj, MARKERS)
     types = [t.type for t in rep.transfers]
     assert types == ["stand_to_sit", "sit_to_stand", "stand_to_sit", "sit_to_stand"]
     # README: seated about 1.2-2.4 s and 4.4-5.2 s.
@@ -125,7 +128,7 @@ def test_sit_down_and_stand_up_twice(shared_data: Path) -> None:
 
 
 def test_a_turn_ends_the_bout(shared_data: Path) -> None:
-    rep = analyse(mocap.load_mocap(shared_file(shared_data, "cmu/16_18.bvh")))
+    rep = analyse(mocap.load_mocap(shared_file(shared_data, "cmu/16_18.bvh")), MARKERS)
     turns = [a for a in rep.activities if a.type == "turning"]
     assert len(turns) == 1
     turning = [s for s in rep.strides if s.turn_deg > 30]
@@ -136,7 +139,7 @@ def test_a_turn_ends_the_bout(shared_data: Path) -> None:
 
 def test_cmu_walks_give_one_bout_each(shared_data: Path) -> None:
     for f, lo, hi in (("07_06", 1.0, 1.5), ("07_04", 0.7, 1.2)):
-        rep = analyse(mocap.load_mocap(shared_file(shared_data, f"cmu/{f}.bvh")))
+        rep = analyse(mocap.load_mocap(shared_file(shared_data, f"cmu/{f}.bvh")), MARKERS)
         assert len(rep.bouts) == 1, f
         assert lo <= rep.summary.walking_speed_m_s <= hi, f
         assert rep.falls == [] and rep.transfers == []
@@ -147,7 +150,7 @@ def test_joint_angles_agree_with_plug_in_gait(shared_data: Path) -> None:
     gait-pig.c3d, stride by stride (laboratory strides)."""
     path = shared_file(shared_data, "c3d/gait-pig.c3d")
     traj = mocap.load_mocap(path)
-    rep = analyse(traj, events=traj.events)
+    rep = analyse(traj, MARKERS, events=traj.events)
     m = mocap.read_c3d_markers(path)
     names = [lab.split(":")[-1] for lab in m.labels]
     # Angles are stored as C3D points; undo the reader's mm -> m scaling.

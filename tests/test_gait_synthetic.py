@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from gait.analysis import GaitConfig, analyse
+from gait.analysis import HS_VELOCITY_FRACTION, GaitConfig, analyse
 from gait.evaluation import add_noise, match_events
 from gait.filtering import GaitInputError, fill_short_gaps, lowpass, repair_swaps
 from gait.result import GaitReport, Summary
@@ -35,7 +35,7 @@ def _truth(speed: float, cadence: float) -> dict[str, float]:
 @pytest.mark.parametrize("fps", [15.0, 20.0, 50.0, 120.0, 240.0])
 def test_events_and_parameters_at_any_frame_rate(fps: float) -> None:
     traj = synthetic_walk(speed_m_s=1.1, cadence_steps_min=108, n_strides=6, fps=fps)
-    rep = analyse(traj)
+    rep = analyse(traj, GaitConfig(source="markers"))  # clean, as laboratory markers are
     m = match_events(rep.events, traj.events)
     assert sum(m.missed.values()) <= 2
     assert m.median_abs_ms("heel_strike") <= 20.0
@@ -47,6 +47,28 @@ def test_events_and_parameters_at_any_frame_rate(fps: float) -> None:
     # Stance 60 % of the stride: double support 2 x 10 %.
     assert rep.summary.stance_pct == pytest.approx(60, abs=4)
     assert rep.summary.double_support_pct == pytest.approx(20, abs=7)
+
+
+def test_the_key_points_source_sets_the_heel_strike_calibration() -> None:
+    """Tracked key points ("video", the default) place heel strike at a smaller fraction of the
+    stance foot's backward speed than laboratory markers, so on the same clean walk their heel
+    strikes come earlier and their toe offs where they were; an explicit fraction wins."""
+    traj = synthetic_walk(speed_m_s=1.1, cadence_steps_min=108, n_strides=6, fps=100)
+    markers = analyse(traj, GaitConfig(source="markers"))
+    video = analyse(traj)
+    assert GaitConfig().source == "video"
+    assert GaitConfig().heel_strike_fraction == HS_VELOCITY_FRACTION["video"]
+    assert GaitConfig(source="markers").heel_strike_fraction == HS_VELOCITY_FRACTION["markers"]
+    assert HS_VELOCITY_FRACTION["video"] < HS_VELOCITY_FRACTION["markers"]
+    m = match_events(video.events, [e.model_dump() for e in markers.events], tolerance_s=0.1)
+    assert sum(m.missed.values()) == 0
+    shift = np.array(m.errors["heel_strike"])
+    assert np.all(shift < -0.005) and np.all(shift > -0.06)
+    assert np.allclose(m.errors["toe_off"], 0.0, atol=1e-9)
+    same = analyse(traj, GaitConfig(hs_velocity_fraction=HS_VELOCITY_FRACTION["markers"]))
+    assert [e.time_s for e in same.events] == [e.time_s for e in markers.events]
+    with pytest.raises(ValueError):
+        GaitConfig(source="imu")
 
 
 def test_a_missed_heel_strike_does_not_make_a_double_stride() -> None:

@@ -1,4 +1,5 @@
-"""``gaitwatch gait (POSES.mcap | JOINTS.csv [--fps F]) [--json OUT.json]``: gait analysis.
+"""``gaitwatch gait (POSES.mcap | JOINTS.csv [--fps F]) [--json OUT.json] [--source S]``: gait
+analysis.
 
 Prints a table (bouts, summary, transfers, falls, fall risk with reasons) and with ``--json``
 writes the CONVENTIONS object ``{"bouts": [...], "events": [...], "summary": {...}}`` plus the
@@ -55,6 +56,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=0.0,
         metavar="M_S",
         help="belt speed for a treadmill recording (m/s; default 0 = overground)",
+    )
+    p.add_argument(
+        "--source",
+        choices=("video", "markers"),
+        default="video",
+        help="where the key points come from: 'video' (tracked, the default; a pose log always "
+        "is) or 'markers' (a laboratory JOINTS.csv). Sets the heel-strike calibration "
+        "(docs/gait.md, 'Gait events')",
     )
     p.set_defaults(func=run)
 
@@ -186,11 +195,20 @@ _OPTIONS = {"long_lie_s": "--long-lie-s", "treadmill_speed_m_s": "--treadmill-sp
 def run(args: argparse.Namespace) -> int:
     if args.json is not None and args.json.exists() and args.json.resolve() == args.input.resolve():
         raise InputError(f"{args.json}: --json would overwrite the input it reads")
+    if args.source == "markers" and args.input.suffix.lower() == ".mcap":
+        raise InputError(
+            f"{args.input}: a pose log holds tracked key points; --source markers is for a "
+            "laboratory JOINTS.csv"
+        )
     traj = load_input(args.input, args.fps)
     if len(traj) < 2:
         raise GaitInputError(f"{args.input}: fewer than two frames with a pose; nothing to analyse")
     try:
-        cfg = GaitConfig(long_lie_s=args.long_lie_s, treadmill_speed_m_s=args.treadmill_speed)
+        cfg = GaitConfig(
+            long_lie_s=args.long_lie_s,
+            treadmill_speed_m_s=args.treadmill_speed,
+            source=args.source,
+        )
     except ValidationError as err:
         first = err.errors()[0]
         field = str(first["loc"][0]) if first.get("loc") else ""
