@@ -394,7 +394,9 @@ def main(argv: list[str] | None = None) -> int:
             f"{'rendered frames' if args.direct else 'mp4v videos read back'}).",
             "",
             "Reference: `gait.analysis.analyse` on the true key points at the footage's frame "
-            "rate; video: the same analysis on the tracked key points. Errors are video - "
+            'rate (as laboratory markers, `source = "markers"`); video: the same analysis on '
+            'the tracked key points (`source = "video"`: heel strike calibrated for tracked '
+            "key points, docs/gait.md). Errors are video - "
             "truth; `%` are relative errors over the matched strides, `pp` percentage points. "
             "See the docstring of `bench/gait_video.py`.",
             "",
