@@ -9,7 +9,7 @@ the whole recording, tracked by the default tracker (``accuracy.track``: the key
 ``gaitwatch track`` writes them, leg labels and smoothing included), and both the tracked key
 points and the true key points at the same frame rate go through ``gait.analysis.analyse`` with
 the same settings, except the key points' source: the truth is analysed as laboratory markers
-(``source = "markers"``, the heel-strike calibration chosen against force plates), the tracked
+(``source = "markers"``, the event calibration chosen against force plates), the tracked
 key points as video (the default). The difference is the error tracking adds to the gait
 parameters.
 
@@ -395,7 +395,7 @@ def main(argv: list[str] | None = None) -> int:
             "",
             "Reference: `gait.analysis.analyse` on the true key points at the footage's frame "
             'rate (as laboratory markers, `source = "markers"`); video: the same analysis on '
-            'the tracked key points (`source = "video"`: heel strike calibrated for tracked '
+            'the tracked key points (`source = "video"`: gait events calibrated for tracked '
             "key points, docs/gait.md). Errors are video - "
             "truth; `%` are relative errors over the matched strides, `pp` percentage points. "
             "See the docstring of `bench/gait_video.py`.",

@@ -60,9 +60,14 @@ KeypointSource = Literal["video", "markers"]
 #: the stance foot's backward speed relative to the sacrum at which heel strike is placed after
 #: Zeni's peak. 0.4 was chosen against the laboratory files' force plates and event markers.
 #: Tracked key points are blurred in time (the tracker's search and output smoothing), which
-#: already delays Zeni's peak; 0.2 matches their heel strikes to those of the true key points
-#: (analysed with 0.4) over the shared walks and crouch gait, one and two cameras, 20 and 30 fps.
+#: already delays Zeni's peak; with 0.2 their heel strikes come nearer those of the true key
+#: points analysed with 0.4 (shared walks and crouch gait, one and two cameras, 20 and 30 fps;
+#: docs/gait.md, "Events of tracked key points").
 HS_VELOCITY_FRACTION: dict[str, float] = {"markers": 0.4, "video": 0.2}
+#: Toe-off refinement per key-point source: 0 is Zeni's toe off, which matches the laboratory
+#: events; blurred tracked key points put Zeni's toe off early, and 0.1 moves it nearer the
+#: truth's.
+TO_VELOCITY_FRACTION: dict[str, float] = {"markers": 0.0, "video": 0.1}
 
 
 class GaitConfig(BaseModel):
@@ -79,13 +84,19 @@ class GaitConfig(BaseModel):
     source: KeypointSource = Field(
         "video",
         description="where the key points come from: 'video' (tracked, e.g. by gaitwatch track) "
-        "or 'markers' (laboratory motion capture); sets the heel-strike refinement's default",
+        "or 'markers' (laboratory motion capture); sets the event refinements' defaults",
     )
     hs_velocity_fraction: float | None = Field(
         None,
         ge=0,
         lt=1,
         description="heel-strike refinement (None: by source, HS_VELOCITY_FRACTION)",
+    )
+    to_velocity_fraction: float | None = Field(
+        None,
+        ge=0,
+        lt=1,
+        description="toe-off refinement (None: by source, TO_VELOCITY_FRACTION; 0: Zeni's)",
     )
     long_lie_s: float = Field(60.0, gt=0, description="time on the floor that is a long lie, s")
     include_curves: bool = Field(True, description="mean hip/knee curves in the summaries")
@@ -97,6 +108,14 @@ class GaitConfig(BaseModel):
         if self.hs_velocity_fraction is not None:
             return self.hs_velocity_fraction
         return HS_VELOCITY_FRACTION[self.source]
+
+    @property
+    def toe_off_fraction(self) -> float:
+        """The toe-off refinement's fraction in use: ``to_velocity_fraction`` if set, else the
+        calibration of the key points' ``source`` (:data:`TO_VELOCITY_FRACTION`)."""
+        if self.to_velocity_fraction is not None:
+            return self.to_velocity_fraction
+        return TO_VELOCITY_FRACTION[self.source]
 
 
 #: A stride is left out when the person sat (or lay) in more than this fraction of its frames.
@@ -252,7 +271,12 @@ def analyse(
     seated = seated_frames(prep, h_stand, bset)
     if events is None:
         evs = detect_events(
-            prep, forward, EventSettings(hs_velocity_fraction=cfg.heel_strike_fraction)
+            prep,
+            forward,
+            EventSettings(
+                hs_velocity_fraction=cfg.heel_strike_fraction,
+                to_velocity_fraction=cfg.toe_off_fraction,
+            ),
         )
         evs = [e for e in evs if not _during(seated, e.frame, e.frame)]
     else:

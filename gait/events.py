@@ -12,7 +12,10 @@ the laboratory recordings comes 10-40 ms before the force-plate contact. It is t
 from the Zeni peak on, heel strike is the first instant the heel moves backward relative to the
 sacrum at ``hs_velocity_fraction`` of the stance foot's backward speed (which equals the walking
 speed over ground and the belt speed on a treadmill, so no ground reference is needed).
-Missing heel or toe key points fall back to the ankle.
+Toe off can be refined the same way (``to_velocity_fraction``; off by default, on for tracked
+key points, see :data:`gait.analysis.TO_VELOCITY_FRACTION`): from the Zeni minimum on, the first
+instant the toe moves forward relative to the sacrum at that fraction of its late-stance
+backward speed. Missing heel or toe key points fall back to the ankle.
 """
 
 from __future__ import annotations
@@ -43,6 +46,10 @@ class EventSettings:
     hs_velocity_fraction: float = 0.4
     """Heel strike refinement: fraction of the stance foot's backward speed relative to the
     sacrum reached at contact (0 gives Zeni's original heel strike)."""
+    to_velocity_fraction: float = 0.0
+    """Toe off refinement: from Zeni's toe off on, the first instant the toe moves forward
+    relative to the sacrum at this fraction of its late-stance backward speed (0, the default,
+    gives Zeni's toe off; tracked key points use more, see ``gait.analysis``)."""
 
 
 @dataclass(frozen=True)
@@ -137,6 +144,8 @@ def detect_events(
         for f, typ, _ in seq:
             if typ == "heel_strike" and s.hs_velocity_fraction > 0:
                 f = _refine_heel_strike(heel, prep.fps, f, s.hs_velocity_fraction)
+            elif typ == "toe_off" and s.to_velocity_fraction > 0:
+                f = _refine_toe_off(toe, prep.fps, f, s.to_velocity_fraction)
             events.append(GaitEvent(side, typ, _time_at(prep.times, f), f))
     events.sort(key=lambda e: e.time_s)
     return events
@@ -184,6 +193,52 @@ def _refine_heel_strike(r: np.ndarray, fps: float, frame: float, fraction: float
     if not (np.isfinite(a) and np.isfinite(b)) or a == b:
         return float(k + i)
     return float(k + i - 1 + (a - thr) / (a - b))
+
+
+def _refine_toe_off(r: np.ndarray, fps: float, frame: float, fraction: float) -> float:
+    """Move a Zeni toe off to where the toe's forward speed relative to the sacrum reaches
+    ``fraction`` of its late-stance backward speed (the mirror of
+    :func:`_refine_heel_strike`).
+
+    Parameters
+    ----------
+    r : ndarray, shape (N,)
+        Forward distance of the toe from the sacrum, metres.
+    frame : float
+        Fractional index of the Zeni minimum.
+
+    Returns
+    -------
+    float
+        Fractional index of the refined toe off (the Zeni minimum when refinement is not
+        possible, e.g. at either end of the recording).
+    """
+    k = int(np.floor(frame))
+    n_late, n_near = int(round(0.3 * fps)), max(1, int(round(0.1 * fps)))
+    # Local derivative only, so the cost does not grow with the recording.
+    lo = max(k - n_late - 1, 0)
+    local = r[lo : k + n_late + 2]
+    if local.size < 3:
+        return frame
+    rv = np.gradient(local, 1.0 / fps)
+    off = k - lo  # index of frame k in rv
+    stance = rv[max(off - n_late, 0) : max(off - n_near + 1, 0)]
+    if stance.size == 0 or not np.isfinite(stance).any():
+        return frame
+    v_walk = -float(np.nanmedian(stance))
+    if not v_walk > 0:
+        return frame
+    thr = fraction * v_walk
+    seg = rv[off : off + n_late + 1]
+    with np.errstate(invalid="ignore"):
+        above = np.flatnonzero(seg >= thr)
+    if above.size == 0 or above[0] == 0:
+        return frame
+    i = int(above[0])
+    a, b = seg[i - 1], seg[i]
+    if not (np.isfinite(a) and np.isfinite(b)) or a == b:
+        return float(k + i)
+    return float(k + i - 1 + (thr - a) / (b - a))
 
 
 def _alternate(

@@ -49,12 +49,12 @@ def test_same_trajectory_gives_no_error(gait_video, walk):
 
 
 def test_truth_is_analysed_as_markers_and_the_video_as_tracked(gait_video, walk):
-    """By default the true key points get the markers' heel-strike calibration and the tracked
-    ones the video's: on the same clean walk only the heel strikes differ (the video's earlier),
-    and an explicit reference config is used as given."""
+    """By default the true key points get the markers' event calibration and the tracked ones
+    the video's: on the same clean walk the video's heel strikes come earlier and its toe offs
+    later, and an explicit reference config is used as given."""
     r = gait_video.compare(walk, walk, GaitConfig())
-    assert r.hs_bias_ms < -5.0 and r.to_ms == pytest.approx(0.0, abs=1e-6)
-    assert r.diff["stance"] > 0.5  # earlier heel strikes, same toe offs: longer stance
+    assert r.hs_bias_ms < -5.0 and r.to_bias_ms > 1.0
+    assert r.diff["stance"] > 0.5  # earlier heel strikes, later toe offs: longer stance
     same = gait_video.compare(walk, walk, GaitConfig(), reference=GaitConfig())
     assert same.hs_ms == pytest.approx(0.0, abs=1e-6)
 

@@ -135,8 +135,8 @@ def test_pose_log_input(tmp_path: Path, walk: Trajectory, capsys) -> None:
 def test_source_option_sets_the_heel_strike_calibration(
     joints_csv: Path, walk: Trajectory, tmp_path: Path, capsys
 ) -> None:
-    """--source markers (a laboratory JOINTS.csv) puts heel strikes later than the default
-    (tracked key points); toe offs do not move."""
+    """--source markers (a laboratory JOINTS.csv) puts heel strikes later and toe offs earlier
+    than the default (tracked key points)."""
     events = {}
     for source in ("video", "markers"):
         out = tmp_path / f"{source}.json"
@@ -152,7 +152,9 @@ def test_source_option_sets_the_heel_strike_calibration(
     hs_v, hs_m = times("video", "heel_strike"), times("markers", "heel_strike")
     assert hs_v.size == hs_m.size >= 8
     assert np.all(hs_m - hs_v > 0.005)
-    np.testing.assert_allclose(times("video", "toe_off"), times("markers", "toe_off"))
+    to_v, to_m = times("video", "toe_off"), times("markers", "toe_off")
+    assert to_v.size == to_m.size >= 8
+    assert np.all(to_v - to_m > 0.001)
     with pytest.raises(SystemExit) as exc:  # argparse's own usage error
         main(["gait", str(joints_csv), "--source", "imu"])
     assert exc.value.code == 2

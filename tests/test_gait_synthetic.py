@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from gait.analysis import HS_VELOCITY_FRACTION, GaitConfig, analyse
+from gait.analysis import HS_VELOCITY_FRACTION, TO_VELOCITY_FRACTION, GaitConfig, analyse
 from gait.evaluation import add_noise, match_events
 from gait.filtering import GaitInputError, fill_short_gaps, lowpass, repair_swaps
 from gait.result import GaitReport, Summary
@@ -49,23 +49,32 @@ def test_events_and_parameters_at_any_frame_rate(fps: float) -> None:
     assert rep.summary.double_support_pct == pytest.approx(20, abs=7)
 
 
-def test_the_key_points_source_sets_the_heel_strike_calibration() -> None:
+def test_the_key_points_source_sets_the_event_calibration() -> None:
     """Tracked key points ("video", the default) place heel strike at a smaller fraction of the
-    stance foot's backward speed than laboratory markers, so on the same clean walk their heel
-    strikes come earlier and their toe offs where they were; an explicit fraction wins."""
+    stance foot's backward speed than laboratory markers, and refine toe off past Zeni's
+    minimum, so on the same clean walk their heel strikes come earlier and their toe offs later;
+    explicit fractions win over the source."""
     traj = synthetic_walk(speed_m_s=1.1, cadence_steps_min=108, n_strides=6, fps=100)
     markers = analyse(traj, GaitConfig(source="markers"))
     video = analyse(traj)
     assert GaitConfig().source == "video"
     assert GaitConfig().heel_strike_fraction == HS_VELOCITY_FRACTION["video"]
+    assert GaitConfig().toe_off_fraction == TO_VELOCITY_FRACTION["video"] > 0
     assert GaitConfig(source="markers").heel_strike_fraction == HS_VELOCITY_FRACTION["markers"]
+    assert GaitConfig(source="markers").toe_off_fraction == TO_VELOCITY_FRACTION["markers"] == 0
     assert HS_VELOCITY_FRACTION["video"] < HS_VELOCITY_FRACTION["markers"]
     m = match_events(video.events, [e.model_dump() for e in markers.events], tolerance_s=0.1)
     assert sum(m.missed.values()) == 0
-    shift = np.array(m.errors["heel_strike"])
-    assert np.all(shift < -0.005) and np.all(shift > -0.06)
-    assert np.allclose(m.errors["toe_off"], 0.0, atol=1e-9)
-    same = analyse(traj, GaitConfig(hs_velocity_fraction=HS_VELOCITY_FRACTION["markers"]))
+    hs_shift, to_shift = np.array(m.errors["heel_strike"]), np.array(m.errors["toe_off"])
+    assert np.all(hs_shift < -0.005) and np.all(hs_shift > -0.06)
+    assert np.all(to_shift > 0.001) and np.all(to_shift < 0.04)
+    same = analyse(
+        traj,
+        GaitConfig(
+            hs_velocity_fraction=HS_VELOCITY_FRACTION["markers"],
+            to_velocity_fraction=TO_VELOCITY_FRACTION["markers"],
+        ),
+    )
     assert [e.time_s for e in same.events] == [e.time_s for e in markers.events]
     with pytest.raises(ValueError):
         GaitConfig(source="imu")

@@ -62,7 +62,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         choices=("video", "markers"),
         default="video",
         help="where the key points come from: 'video' (tracked, the default; a pose log always "
-        "is) or 'markers' (a laboratory JOINTS.csv). Sets the heel-strike calibration "
+        "is) or 'markers' (a laboratory JOINTS.csv). Sets the gait events' calibration "
         "(docs/gait.md, 'Gait events')",
     )
     p.set_defaults(func=run)
