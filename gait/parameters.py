@@ -26,7 +26,7 @@ import numpy as np
 from gait.events import GaitEvent
 from gait.filtering import Prepared, quiet_nanmean, quiet_nanmedian
 from gait.geometry import unit
-from gaitwatch.conventions import side_index
+from gaitwatch.conventions import SACRUM, side_index
 
 OTHER = {"left": "right", "right": "left"}
 
@@ -41,6 +41,15 @@ class StrideSettings:
     treadmill_speed_m_s: float = 0.0
     """Belt speed for treadmill recordings (0 for overground): placements are shifted forward
     by the belt displacement so that lengths and speed refer to the belt."""
+    length_ratio: tuple[float, float] = (0.8, 1.25)
+    """A straight stride's length over the sacrum's horizontal travel from its first heel strike
+    to its last must lie in this range, else the stride is left out. In steady walking the foot
+    moves on by as much as the body; a heel strike read at the wrong time (tracked legs running
+    out of phase) places the foot elsewhere."""
+    length_ratio_max_turn_deg: float = 30.0
+    """The ratio is checked on strides that turn less than this (a turn's chords differ)."""
+    length_ratio_min_travel_m: float = 0.2
+    """...and that travel at least this far (walking on the spot, an unknown treadmill)."""
 
 
 @dataclass
@@ -131,8 +140,9 @@ def compute_strides(
     -------
     list of StrideCalc
         Sorted by start time; strides longer or shorter than plausible, without a
-        contralateral heel strike inside, or holding a whole contralateral stride (a heel
-        strike of this foot missed), are left out.
+        contralateral heel strike inside, holding a whole contralateral stride (a heel strike
+        of this foot missed), or straight but not as long as the body's travel over them
+        (``StrideSettings.length_ratio``), are left out.
     """
     s = settings or StrideSettings()
     by: dict[tuple[str, str], list[GaitEvent]] = {}
@@ -141,6 +151,7 @@ def compute_strides(
     dt = 1.0 / prep.fps
     t_first = float(prep.times[0])
     pts = {side: foot_points(prep, side) for side in ("left", "right")}
+    sacrum = prep.positions[:, SACRUM, :2]
     fw = quiet_nanmean(forward[:, :2], axis=0)
     fw = fw / np.linalg.norm(fw) if np.isfinite(fw).all() and np.linalg.norm(fw) > 0 else None
 
@@ -187,6 +198,18 @@ def compute_strides(
             step_w = float(abs(u[0] * v[1] - u[1] * v[0]))
             h0 = float(_interp_rows(heading_rad, st.f0))
             h1 = float(_interp_rows(heading_rad, st.f1))
+            turn = float(np.degrees(abs(h1 - h0)))
+            travel = _interp_rows(sacrum, st.f1) - _interp_rows(sacrum, st.f0)
+            if s.treadmill_speed_m_s and fw is not None:
+                travel = travel + s.treadmill_speed_m_s * T * fw
+            moved = float(np.hypot(*travel))
+            if (
+                turn < s.length_ratio_max_turn_deg
+                and moved >= s.length_ratio_min_travel_m
+                and np.isfinite(L)
+                and not s.length_ratio[0] <= L / moved <= s.length_ratio[1]
+            ):
+                continue  # the feet did not move on with the body: not a stride
             vals = {
                 "stride_time_s": T,
                 "stride_length_m": L,
@@ -194,7 +217,7 @@ def compute_strides(
                 "step_length_m": step_len,
                 "step_width_m": step_w,
                 "step_time_s": c.time_s - t0,
-                "turn_deg": float(np.degrees(abs(h1 - h0))),
+                "turn_deg": turn,
             }
             if st.toe_off is not None:
                 stance = 100.0 * (st.toe_off - t0) / T

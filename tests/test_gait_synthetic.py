@@ -10,7 +10,10 @@ import pytest
 
 from gait.analysis import HS_VELOCITY_FRACTION, TO_VELOCITY_FRACTION, GaitConfig, analyse
 from gait.evaluation import add_noise, match_events
-from gait.filtering import GaitInputError, fill_short_gaps, lowpass, repair_swaps
+from gait.events import GaitEvent
+from gait.filtering import GaitInputError, fill_short_gaps, lowpass, prepare, repair_swaps
+from gait.geometry import heading, heading_angle
+from gait.parameters import StrideSettings, compute_strides
 from gait.result import GaitReport, Summary
 from gait.risk import assess
 from gait.synthetic import (
@@ -20,7 +23,7 @@ from gait.synthetic import (
     synthetic_pose_sequence,
     synthetic_walk,
 )
-from gaitwatch.conventions import GAIT_JSON_FIELDS, KP, L_HEEL, R_HEEL
+from gaitwatch.conventions import GAIT_JSON_FIELDS, KP, L_ANKLE, L_HEEL, L_TOE, R_HEEL
 from gaitwatch.trajectory import Trajectory
 
 
@@ -78,6 +81,54 @@ def test_the_key_points_source_sets_the_event_calibration() -> None:
     assert [e.time_s for e in same.events] == [e.time_s for e in markers.events]
     with pytest.raises(ValueError):
         GaitConfig(source="imu")
+
+
+def _strides(traj: Trajectory, **settings) -> list:
+    """``compute_strides`` on the walk's own (exact) events."""
+    prep = prepare(traj, cutoff_hz=6.0, max_gap_s=0.25, fix_swaps=False)
+    forward, _ = heading(prep.positions, prep.fps)
+    events = [
+        GaitEvent(e["side"], e["type"], e["time_s"], (e["time_s"] - prep.times[0]) * prep.fps)
+        for e in traj.events
+    ]
+    return compute_strides(
+        prep, events, forward, heading_angle(forward), StrideSettings(**settings)
+    )
+
+
+def test_a_stride_must_be_as_long_as_the_body_moved() -> None:
+    """A heel strike read where the foot is not (tracked legs out of phase) places that foot
+    half a metre off: the two strides it bounds are not as long as the sacrum travelled over
+    them and are left out; every other stride, and every stride of a clean walk, stays."""
+    traj = synthetic_walk(speed_m_s=1.1, cadence_steps_min=108, n_strides=6, fps=50)
+    clean = _strides(traj)
+    assert len(clean) == len(_strides(traj, length_ratio=(0.0, np.inf))) >= 10
+    left_hs = [
+        e["time_s"] for e in traj.events if e["side"] == "left" and e["type"] == "heel_strike"
+    ]
+    t = left_hs[len(left_hs) // 2]
+    pos = traj.positions.copy()
+    # The left foot's placement window after that heel strike, moved 0.5 m back.
+    win = (traj.times >= t - 0.05) & (traj.times <= t + 0.35)
+    for kp in (L_HEEL, L_ANKLE, L_TOE):
+        pos[win, kp, 0] -= 0.5
+    bad = traj.with_positions(pos)
+    kept = _strides(bad)
+    unchecked = _strides(bad, length_ratio=(0.0, np.inf))
+    gone = {(s.side, round(s.t0, 3)) for s in unchecked} - {(s.side, round(s.t0, 3)) for s in kept}
+    assert len(unchecked) == len(clean)
+    assert len(gone) == 2 and all(side == "left" for side, _ in gone)
+    assert sorted(t0 for _, t0 in gone)[1] == pytest.approx(t, abs=0.02)
+    stride_m = 1.1 * 120.0 / 108
+    assert all(s.values["stride_length_m"] == pytest.approx(stride_m, rel=0.05) for s in kept)
+    # On a treadmill the sacrum stays put; the belt's displacement counts as travel.
+    still = traj.positions.copy()
+    shift = 1.1 * (traj.times - traj.times[0])
+    still[..., 0] -= shift[:, None]
+    tread = traj.with_positions(still)
+    assert len(_strides(tread, treadmill_speed_m_s=1.1)) == len(clean)
+    # Walking on the spot without a known belt: too little travel to check, nothing dropped.
+    assert len(_strides(tread)) == len(_strides(tread, length_ratio=(0.0, np.inf)))
 
 
 def test_a_missed_heel_strike_does_not_make_a_double_stride() -> None:
