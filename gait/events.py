@@ -182,17 +182,9 @@ def _refine_heel_strike(r: np.ndarray, fps: float, frame: float, fraction: float
     v_walk = -float(np.nanmedian(stance))
     if not v_walk > 0:
         return frame
-    thr = -fraction * v_walk
-    seg = rv[off : off + int(round(0.3 * fps)) + 1]
-    with np.errstate(invalid="ignore"):
-        below = np.flatnonzero(seg <= thr)
-    if below.size == 0 or below[0] == 0:
-        return frame
-    i = int(below[0])
-    a, b = seg[i - 1], seg[i]
-    if not (np.isfinite(a) and np.isfinite(b)) or a == b:
-        return float(k + i)
-    return float(k + i - 1 + (a - thr) / (a - b))
+    # The backward speed rising to the fraction: the negated velocity rising past it.
+    seg = -rv[off : off + int(round(0.3 * fps)) + 1]
+    return _first_rise(seg, fraction * v_walk, k, frame)
 
 
 def _refine_toe_off(r: np.ndarray, fps: float, frame: float, fraction: float) -> float:
@@ -228,8 +220,13 @@ def _refine_toe_off(r: np.ndarray, fps: float, frame: float, fraction: float) ->
     v_walk = -float(np.nanmedian(stance))
     if not v_walk > 0:
         return frame
-    thr = fraction * v_walk
-    seg = rv[off : off + n_late + 1]
+    return _first_rise(rv[off : off + n_late + 1], fraction * v_walk, k, frame)
+
+
+def _first_rise(seg: np.ndarray, thr: float, k: int, frame: float) -> float:
+    """Fractional index ``k + i`` where ``seg`` (samples from frame k on) first reaches ``thr``,
+    linearly interpolated between the samples around it; ``frame`` when it never does or
+    already does at k."""
     with np.errstate(invalid="ignore"):
         above = np.flatnonzero(seg >= thr)
     if above.size == 0 or above[0] == 0:
