@@ -186,7 +186,9 @@ def compute_strides(
             st = StrideCalc(side, t0, t1, frame_of(a), frame_of(b))
             st.toe_off = _first(to, t0, t1)
             st.contra_strike = c.time_s
-            st.contra_toe_off = _first(c_to, t0, st.toe_off if st.toe_off else c.time_s)
+            # The other foot leaves the ground after this heel strike and before its own next
+            # strike: a toe off of it after that strike belongs to its next cycle.
+            st.contra_toe_off = _first(c_to, t0, c.time_s)
             p0 = foot_placement(prep, pts[side], st.f0, s, fw)
             p1 = foot_placement(prep, pts[side], st.f1, s, fw)
             pc = foot_placement(prep, pts[OTHER[side]], frame_of(c), s, fw)

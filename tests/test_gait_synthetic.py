@@ -83,17 +83,41 @@ def test_the_key_points_source_sets_the_event_calibration() -> None:
         GaitConfig(source="imu")
 
 
-def _strides(traj: Trajectory, **settings) -> list:
-    """``compute_strides`` on the walk's own (exact) events."""
+def _strides(traj: Trajectory, events: list[dict] | None = None, **settings) -> list:
+    """``compute_strides`` on ``events`` (default: the walk's own, exact ones)."""
     prep = prepare(traj, cutoff_hz=6.0, max_gap_s=0.25, fix_swaps=False)
     forward, _ = heading(prep.positions, prep.fps)
     events = [
         GaitEvent(e["side"], e["type"], e["time_s"], (e["time_s"] - prep.times[0]) * prep.fps)
-        for e in traj.events
+        for e in (traj.events if events is None else events)
     ]
     return compute_strides(
         prep, events, forward, heading_angle(forward), StrideSettings(**settings)
     )
+
+
+def test_double_support_ends_with_the_other_foots_toe_off_before_its_strike() -> None:
+    """Initial double support ends at the other foot's toe off between this heel strike and
+    the other foot's strike. A toe off of the other foot read after its strike (a spurious
+    event in tracked key points) belongs to its next cycle: the stride then has no double
+    support instead of one longer than the stride."""
+    traj = synthetic_walk(speed_m_s=1.1, cadence_steps_min=108, n_strides=6, fps=50)
+    clean = _strides(traj)
+    assert all(s.values["double_support_pct"] == pytest.approx(20, abs=3) for s in clean)
+    st = clean[len(clean) // 2]
+    other = "right" if st.side == "left" else "left"
+    proper = [
+        e
+        for e in traj.events
+        if (e["side"], e["type"]) == (other, "toe_off") and st.t0 < e["time_s"] < st.contra_strike
+    ]
+    assert len(proper) == 1
+    spurious = {"side": other, "type": "toe_off", "time_s": (st.contra_strike + st.toe_off) / 2}
+    events = [e for e in traj.events if e is not proper[0]] + [spurious]
+    again = {(s.side, round(s.t0, 3)): s for s in _strides(traj, events)}
+    same = again[(st.side, round(st.t0, 3))]
+    assert same.contra_toe_off is None and "double_support_pct" not in same.values
+    assert all(s.values.get("double_support_pct", 0) <= 100 for s in again.values())
 
 
 def test_a_stride_must_be_as_long_as_the_body_moved() -> None:
