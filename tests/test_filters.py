@@ -429,3 +429,47 @@ def test_inject_keeps_the_motion_history() -> None:
     assert np.array_equal(f.estimate().pose, better)
     f.inject(better[None], np.array([11.0]), reset_motion=True)
     assert len(f._history) == 1
+
+
+@pytest.mark.parametrize("name", sorted(FILTERS))
+def test_a_share_of_the_budget_shrinks_every_filter_alike(name: str) -> None:
+    """``share`` keeps a third of the IPF's groups and weighs a third as many poses in the
+    baselines: 243 of 729 evaluations, whatever the filter."""
+    cfg = _small_config(name)
+    f = make_filter(name, cfg, rng=np.random.default_rng(0), share=1 / 3)
+    assert f.evaluations_per_step == 243
+    f.initialise(_standing()[None])
+    lik = ToyLikelihood(_truth(0.0))
+    f.step(lik, 0.05)
+    assert lik.evaluations == 243
+    whole = make_filter(name, cfg, rng=np.random.default_rng(0), share=1.0)
+    assert whole.evaluations_per_step == 729
+    for bad in (0.0, -0.5, 1.5):
+        with pytest.raises(ValueError, match="share"):
+            make_filter(name, cfg, rng=np.random.default_rng(0), share=bad)
+
+
+@pytest.mark.parametrize("name", sorted(FILTERS))
+def test_load_state_continues_as_the_other_filter_would(name: str) -> None:
+    """A filter that loads another's state steps on exactly as that one would have."""
+    cfg = _small_config(name)
+    small = make_filter(name, cfg, rng=np.random.default_rng(5), share=1 / 3)
+    small.initialise(_standing()[None])
+    for k in range(2):
+        small.step(ToyLikelihood(_truth(0.05 * k)), 0.05)
+    big = make_filter(name, cfg, rng=np.random.default_rng(5))
+    big.initialise(np.repeat(_truth(0.3)[None], 4, axis=0))
+    big.load_state(small)
+    assert np.array_equal(big.particles, small.particles)
+    assert big.particles is not small.particles  # copies: the two go on separately
+    twin = make_filter(name, cfg, rng=np.random.default_rng(9))
+    twin.load_state(small)
+    big.rng, twin.rng = np.random.default_rng(1), np.random.default_rng(1)
+    a = big.step(ToyLikelihood(_truth(0.1)), 0.05)
+    b = twin.step(ToyLikelihood(_truth(0.1)), 0.05)
+    assert np.array_equal(a.pose, b.pose) and a.weight == b.weight
+    assert big.evaluations_per_step == 729  # its own budget, not the loaded filter's
+    other_name = "ipf" if name != "ipf" else "condensation"
+    other = make_filter(other_name, cfg, rng=np.random.default_rng(0))
+    with pytest.raises(TypeError):
+        big.load_state(other)

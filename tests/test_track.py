@@ -572,13 +572,18 @@ def _grid_capped_at_the_estimate(tracker) -> list[tuple[float, float]]:
     return calls
 
 
-@pytest.mark.parametrize("steps", [2, 0])
-def test_redetect_refines_a_grid_pose_that_does_not_win_as_it_is(clip: dict, steps: int) -> None:
+@pytest.mark.parametrize(("steps", "share"), [(2, 1.0), (0, 1.0), (2, 1 / 3)])
+def test_redetect_refines_a_grid_pose_that_does_not_win_as_it_is(
+    clip: dict, steps: int, share: float
+) -> None:
     """A grid pose in the right basin that weighs no more than a slid track wins once refined
-    by filter steps (refine_steps); compared as it is (0), the track stays off."""
+    by filter steps (refine_steps), also with a third of the budget (trial_share); compared as
+    it is (0), the track stays off."""
     from tracker.config import RedetectConfig
 
-    tracker = _tracker_after_first_frame(clip, redetect=RedetectConfig(refine_steps=steps))
+    tracker = _tracker_after_first_frame(
+        clip, redetect=RedetectConfig(refine_steps=steps, trial_share=share)
+    )
     calls = _grid_capped_at_the_estimate(tracker)
     tracker.filter.particles[:, 1] += 0.6
     tracker.prev_pose[1] += 0.6
@@ -594,14 +599,16 @@ def test_redetect_refines_a_grid_pose_that_does_not_win_as_it_is(clip: dict, ste
         assert sacrum_err > 0.3
 
 
-def test_redetect_refinement_not_adopted_restores_the_particles(clip: dict) -> None:
+@pytest.mark.parametrize("share", [1.0, 1 / 3])
+def test_redetect_refinement_not_adopted_restores_the_particles(clip: dict, share: float) -> None:
     """A refinement that does not beat the estimate by the margin leaves the estimate and the
-    filter's particle set exactly as the filter left them."""
+    filter's particle set exactly as the filter left them; with trial_share < 1 the trial runs
+    on a filter of that share of the budget."""
     from tracker.config import RedetectConfig
 
     tracker = _tracker_after_first_frame(
         clip,
-        redetect=RedetectConfig(margin=0.9, refine_steps=2),  # nothing can win
+        redetect=RedetectConfig(margin=0.9, refine_steps=2, trial_share=share),  # nothing can win
     )
     calls = _grid_capped_at_the_estimate(tracker)
     steps = []
@@ -612,6 +619,14 @@ def test_redetect_refinement_not_adopted_restores_the_particles(clip: dict) -> N
         return step(lik, dt)
 
     tracker.filter.step = counting
+    trials = []
+    seed_and_step = tracker._seed_and_step
+
+    def trial_budget(filt, poses, weights, dt, n=1):
+        trials.append((filt is tracker.filter, filt.evaluations_per_step, n))
+        return seed_and_step(filt, poses, weights, dt, n)
+
+    tracker._seed_and_step = trial_budget
     seen = {}
     redetect = tracker._redetect_search
 
@@ -625,7 +640,12 @@ def test_redetect_refinement_not_adopted_restores_the_particles(clip: dict) -> N
     tracker._redetect_search = snapshot
     tracker.process(1, 1 / FPS, clip["frames"][1])
     assert len(calls) == 1
-    assert len(steps) == 1 + tracker.config.redetect.refine_steps  # the filter's + the trial's
+    if share == 1:
+        assert trials == [(True, 729, 2)]
+        assert len(steps) == 1 + tracker.config.redetect.refine_steps  # the filter's + the trial's
+    else:
+        assert trials == [(False, 243, 2)]  # a third of IPF(kept=9)'s 729
+        assert len(steps) == 1  # the filter's own step only
     assert np.array_equal(seen["before"][0], seen["after"][0])
     assert np.array_equal(seen["before"][1], seen["after"][1])
     pose, weight, out_pose, out_weight = seen["in_out"]

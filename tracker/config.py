@@ -556,6 +556,16 @@ class RedetectConfig(_Model):
     refine_candidates: Annotated[
         int, Field(ge=1, le=1000, description="Best candidates seeding the refining filter")
     ] = 9
+    trial_share: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=1,
+            description="Share of the filter's evaluations a trial refinement spends (these "
+            "refinements, the heading checks' and the leg length's): a filter of the same kind "
+            "with that share of the budget; 1: the tracker's own filter",
+        ),
+    ] = 1.0
 
 
 class SeatedConfig(_Model):

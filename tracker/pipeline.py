@@ -407,6 +407,8 @@ class Tracker:
         self._seated_configs: tuple[object, object, np.ndarray] | None = None
         self.rng = rng
         self.filter: Filter = make_filter(c.filter, c, rng=rng, limits=self.limits)
+        #: The trials' smaller filter (``redetect.trial_share`` < 1), built when first needed.
+        self._trial_filter: Filter | None = None
         bgs = list(backgrounds) if backgrounds is not None else [None] * len(self.cameras)
         if len(bgs) != len(self.cameras):
             raise ValueError(f"{len(bgs)} background images for {len(self.cameras)} cameras")
@@ -1389,7 +1391,21 @@ class Tracker:
         (``self.filter.__dict__.update(saved)`` restores it when the trial is not adopted).
         """
         saved = dict(self.filter.__dict__)
-        best, w = self._seed_and_step(self.filter, poses, weights, dt, steps)
+        share = self.config.redetect.trial_share
+        if share >= 1:
+            best, w = self._seed_and_step(self.filter, poses, weights, dt, steps)
+            return best, w, saved
+        # A filter of the same kind with a share of the budget runs the trial; the tracker's
+        # filter then takes over its particles, as if it had run the trial itself.
+        if self._trial_filter is None:
+            c = self.config
+            self._trial_filter = make_filter(
+                c.filter, c, rng=self.rng, limits=self.limits, share=share
+            )
+        trial = self._trial_filter
+        trial.set_limits((self.filter.low, self.filter.high))
+        best, w = self._seed_and_step(trial, poses, weights, dt, steps)
+        self.filter.load_state(trial)
         return best, w, saved
 
     def _refine_pose(self, pose: np.ndarray, weight: float, dt: float) -> tuple[np.ndarray, float]:

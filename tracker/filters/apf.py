@@ -76,6 +76,7 @@ class AnnealedParticleFilter(Filter):
     """Annealed particle filtering with survival-rate-driven annealing (see module docstring)."""
 
     name = "apf"
+    STATE = (*Filter.STATE, "pi", "betas")
 
     def __init__(
         self,

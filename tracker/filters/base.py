@@ -170,6 +170,8 @@ class Filter(ABC):
     """
 
     name: ClassVar[str] = "filter"
+    #: The attributes that carry the filter from frame to frame (:meth:`load_state`).
+    STATE: ClassVar[tuple[str, ...]] = ("particles", "weights", "last_evaluations")
 
     def __init__(
         self,
@@ -230,6 +232,15 @@ class Filter(ABC):
         self.low, self.high = low, high
         if self.particles.size:
             self.clamp(self.particles)
+
+    def load_state(self, other: Filter) -> None:
+        """Take over the particle set and motion history of ``other``, a filter of the same
+        kind (a trial run with a smaller budget, whose result is adopted)."""
+        if type(other) is not type(self):
+            raise TypeError(f"cannot load a {other.name} filter's state into a {self.name} one")
+        for key in self.STATE:
+            value = getattr(other, key)
+            setattr(self, key, value.copy() if hasattr(value, "copy") else value)
 
     @property
     def initialised(self) -> bool:

@@ -62,6 +62,7 @@ class IntervalParticleFilter(Filter):
     """Interval Particle Filtering over the 31 pose DOFs (see the module docstring)."""
 
     name = "ipf"
+    STATE = (*Filter.STATE, "_history", "_last_dt", "used_factored")
 
     def __init__(
         self,
