@@ -1401,6 +1401,20 @@ class TrackerConfig(_Model):
             raise ValueError(f"limits_overrides_deg: unknown DOF(s) {', '.join(unknown)}")
         return self
 
+    def divided_budget(self, parts: float) -> TrackerConfig:
+        """These settings with the filters' likelihood evaluations divided by ``parts`` (>= 1):
+        the IPF's ``kept`` and, when set, the baselines' ``evaluations`` (rounded, at least 1;
+        unset, they follow the IPF's). Several tracks share a budget so; so do the trials of
+        ``redetect.trial_share``."""
+        if not parts >= 1:
+            raise ValueError(f"the budget is divided into at least 1 part, not {parts}")
+        update: dict = {
+            "ipf": self.ipf.model_copy(update={"kept": max(1, round(self.ipf.kept / parts))})
+        }
+        if self.evaluations is not None:
+            update["evaluations"] = max(1, round(self.evaluations / parts))
+        return self.model_copy(update=update)
+
     @property
     def evaluations_per_frame(self) -> int:
         """Likelihood evaluations per frame of the body-part filter (all filters)."""

@@ -54,12 +54,9 @@ def member_config(config: TrackerConfig) -> TrackerConfig:
     the baselines' ``evaluations`` (when set) divided by the number of tracks (rounded, at least
     1), no ensemble of its own."""
     k = config.ensemble.tracks
-    update: dict = {"ensemble": EnsembleConfig(tracks=1)}
     if k > 1:
-        update["ipf"] = config.ipf.model_copy(update={"kept": max(1, round(config.ipf.kept / k))})
-        if config.evaluations is not None:
-            update["evaluations"] = max(1, round(config.evaluations / k))
-    return config.model_copy(update=update)
+        config = config.divided_budget(k)
+    return config.model_copy(update={"ensemble": EnsembleConfig(tracks=1)})
 
 
 def make_tracker(

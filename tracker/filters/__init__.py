@@ -50,30 +50,25 @@ def make_filter(
     limits : (low (31,), high (31,)), optional
         Metres / radians; default ``config.joint_limits().arrays()``.
     share : float
-        Share (0-1] of the configured likelihood evaluations per step: the IPF keeps that share
-        of its ``kept`` particles, the baselines weigh that share of ``evaluations`` (rounded,
-        at least one), so every filter shrinks alike.
+        Share (0-1] of the configured likelihood evaluations per step
+        (:meth:`TrackerConfig.divided_budget` by ``1 / share``), alike for every filter.
     """
     config = config or TrackerConfig()
     if name not in FILTERS:
         raise ValueError(f"unknown filter {name!r}; choose one of {', '.join(FILTER_NAMES)}")
     if not 0 < share <= 1:
         raise ValueError(f"share must lie in (0, 1], not {share}")
+    if share < 1:
+        config = config.divided_budget(1 / share)
     limits = limits if limits is not None else config.joint_limits().arrays()
     common = {"limits": limits, "rng": rng, "reference_dt": config.reference_dt_s}
     if name == "ipf":
-        ipf = config.ipf
-        if share < 1:
-            ipf = ipf.model_copy(update={"kept": max(1, round(ipf.kept * share))})
-        return IntervalParticleFilter(ipf, **common)
-    evaluations = config.evaluations_per_frame
-    if share < 1:
-        # The IPF's budget shrinks by whole groups; the baselines' by the same factor.
-        kept = max(1, round(config.ipf.kept * share))
-        evaluations = max(1, round(evaluations * kept / config.ipf.kept))
+        return IntervalParticleFilter(config.ipf, **common)
     if name == "apf":
-        return AnnealedParticleFilter(config.apf, evaluations=evaluations, **common)
-    return CondensationFilter(config.condensation, particles=evaluations, **common)
+        return AnnealedParticleFilter(
+            config.apf, evaluations=config.evaluations_per_frame, **common
+        )
+    return CondensationFilter(config.condensation, particles=config.evaluations_per_frame, **common)
 
 
 __all__ = [
