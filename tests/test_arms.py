@@ -86,6 +86,29 @@ def test_never_lowers_the_weight_and_stays_in_limits(body, limits) -> None:
         assert np.all(res.pose >= lo - 1e-12) and np.all(res.pose <= hi + 1e-12)
 
 
+def test_rank_steers_the_choice_and_the_weight_stays_the_likelihoods(body, limits) -> None:
+    """A ranking factor (the edge cue's, ``edges.scope = "arm_search"``) picks among the grid;
+    the result's weight is the likelihood's own, and a factor of 1 changes nothing."""
+    truth = _truth(body)
+    lik = own_likelihood(body, truth)
+    w = float(lik.weights(truth[None])[0])
+    cfg = ArmSearchConfig(levels=1)
+    plain = search_arms(lik, truth, w, cfg, limits=limits)
+    ones = search_arms(lik, truth, w, cfg, limits=limits, rank=lambda p: np.ones(len(p)))
+    np.testing.assert_array_equal(ones.pose, plain.pose)
+    assert ones.weight == plain.weight
+    # a factor that rewards a straighter left elbow moves it off the truth
+    target = truth[DOF["l_elbow_flexion"]] - np.radians(25)
+
+    def rank(poses: np.ndarray) -> np.ndarray:
+        return np.exp(-np.abs(poses[:, DOF["l_elbow_flexion"]] - target))
+
+    res = search_arms(lik, truth, w, cfg, limits=limits, rank=rank)
+    assert res.pose[DOF["l_elbow_flexion"]] < truth[DOF["l_elbow_flexion"]] - 0.1
+    assert res.weight == pytest.approx(float(lik.weights(res.pose[None])[0]))
+    assert res.weight < w  # the silhouette alone preferred the truth
+
+
 def test_grid_and_config() -> None:
     names, grid = arm_grid(ArmSearchConfig(range_rotation_deg=0, flexion_values=5))
     assert names == ["shoulder_flexion", "shoulder_abduction", "elbow_flexion"]

@@ -87,11 +87,15 @@ def search_arms(
     config: ArmSearchConfig,
     *,
     limits: tuple[np.ndarray, np.ndarray],
+    rank=None,
 ) -> ArmSearchResult:
     """Search the left arm, then the right arm, on the grid of :func:`arm_grid`, ``levels``
     times with ranges shrinking by ``shrink``; see the module docstring.
 
-    ``weight`` is ``pose``'s weight on the likelihood's current silhouettes.
+    ``weight`` is ``pose``'s weight on the likelihood's current silhouettes. ``rank``, when
+    given, maps poses ``(N, 31)`` to factors ``(N,)`` that multiply the weights for choosing
+    (the edge cue with ``edges.scope = "arm_search"``); the result's weight stays the
+    likelihood's.
     """
     names, grid = arm_grid(config)
     low, high = limits
@@ -102,6 +106,7 @@ def search_arms(
         moving = None
     best = np.asarray(pose, dtype=np.float64).copy()
     best_w = float(weight)
+    best_r = best_w if rank is None else best_w * float(rank(best[None])[0])
     evaluations = 0
     for level in range(config.levels):
         offsets = grid * config.shrink**level
@@ -115,7 +120,8 @@ def search_arms(
             else:
                 w = np.asarray(likelihood.weights(cand), dtype=np.float64)
             evaluations += len(cand)
-            i = int(np.argmax(w))
-            if w[i] > best_w:
-                best, best_w = cand[i].copy(), float(w[i])
+            r = w if rank is None else w * np.asarray(rank(cand), dtype=np.float64)
+            i = int(np.argmax(r))
+            if r[i] > best_r:
+                best, best_w, best_r = cand[i].copy(), float(w[i]), float(r[i])
     return ArmSearchResult(pose=best, weight=best_w, evaluations=evaluations)

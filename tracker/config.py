@@ -1142,6 +1142,101 @@ class AppearanceConfig(_Model):
     ] = 4
 
 
+class EdgeConfig(_Model):
+    """The edge cue (:mod:`tracker.edges`): the limbs' projected outlines scored against the
+    frame's edges; the weight is multiplied by ``(score / typical) ** beta``. Off by default
+    (docs/tracker.md, "Edge cue")."""
+
+    enabled: Annotated[
+        bool, Field(description="Multiply the weight by the edges' agreement with the outlines")
+    ] = False
+    size: Annotated[tuple[int, int], Field(description="Width, height of the edge maps")] = (
+        320,
+        240,
+    )
+    beta: Annotated[
+        float, Field(gt=0, le=20, description="Exponent of the edge factor (its strength)")
+    ] = 0.5
+    parts: Annotated[
+        tuple[str, ...],
+        Field(
+            min_length=1, description="Parts whose outlines are scored (tracker.edges.EDGE_PARTS)"
+        ),
+    ] = ("upper_arm", "forearm", "thigh", "shank")
+    scope: Annotated[
+        Literal["all", "arm_search"],
+        Field(
+            description="all: every weight of the likelihood; arm_search: only the arm "
+            "search's choice among its grid (tracker.arms), the filters' weights untouched"
+        ),
+    ] = "all"
+    samples: Annotated[
+        int, Field(ge=1, le=32, description="Points scored along each side of a capsule")
+    ] = 5
+    axis_margin: Annotated[
+        float,
+        Field(ge=0, lt=0.5, description="Fraction of the axis skipped at each end (joints)"),
+    ] = 0.2
+    lightness_weight: Annotated[
+        float, Field(ge=0, le=1, description="Factor on Lab lightness (shading edges)")
+    ] = 1.0
+    blur_px: Annotated[
+        float, Field(ge=0, le=10, description="Gaussian smoothing before the gradient, pixels")
+    ] = 1.0
+    margin_px: Annotated[
+        int, Field(ge=0, le=20, description="Edges kept up to this far outside the silhouette")
+    ] = 2
+    scale_percentile: Annotated[
+        float,
+        Field(
+            gt=0,
+            lt=100,
+            description="Percentile of the gradient magnitude inside the silhouette that "
+            "scores 1 (edges at least this strong score 1)",
+        ),
+    ] = 90.0
+    min_scale: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=100,
+            description="Least gradient (Lab units per pixel) that scores 1, whatever the "
+            "percentile (sensor noise must not score)",
+        ),
+    ] = 2.0
+    interior_px: Annotated[
+        int,
+        Field(
+            ge=0,
+            le=20,
+            description="If > 0, only edges this many pixels inside the silhouette count (the "
+            "outline against the room is left to the silhouette term)",
+        ),
+    ] = 0
+    rate: Annotated[
+        float, Field(gt=0, le=1, description="Update rate of the typical score of estimates")
+    ] = 0.2
+
+    @field_validator("parts")
+    @classmethod
+    def _parts(cls, v: tuple[str, ...]) -> tuple[str, ...]:
+        from tracker.edges import EDGE_PARTS
+
+        unknown = sorted(set(v) - set(EDGE_PARTS))
+        if unknown:
+            raise ValueError(
+                f"unknown part(s) {', '.join(unknown)}; known: {', '.join(EDGE_PARTS)}"
+            )
+        return v
+
+    @field_validator("size")
+    @classmethod
+    def _size(cls, v: tuple[int, int]) -> tuple[int, int]:
+        if not (8 <= v[0] <= 4096 and 8 <= v[1] <= 4096):
+            raise ValueError("width and height must be within 8..4096")
+        return v
+
+
 class SmoothingConfig(_Model):
     """Fixed-lag smoothing of the key points written by ``gaitwatch track``
     (:mod:`tracker.smoothing`; ``Tracker.process`` itself returns each frame's own estimate)."""
@@ -1323,6 +1418,7 @@ class TrackerConfig(_Model):
     refine: RefineConfig = Field(default_factory=RefineConfig)
     arms: ArmSearchConfig = Field(default_factory=ArmSearchConfig)
     appearance: AppearanceConfig = Field(default_factory=AppearanceConfig)
+    edges: EdgeConfig = Field(default_factory=EdgeConfig)
     collision: CollisionConfig = Field(default_factory=CollisionConfig)
     occlusion: OcclusionConfig = Field(default_factory=OcclusionConfig)
     limits_profile: Annotated[str, Field(description="tracker.dof limit profile")] = "walking"

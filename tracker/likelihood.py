@@ -151,6 +151,8 @@ class SilhouetteLikelihood:
         self._occluded: list[np.ndarray | None] = [None] * k
         #: Optional colour cue (tracker.appearance.ColourCue): multiplies the weights when active.
         self.appearance = None
+        #: Optional edge cue (tracker.edges.EdgeCue): multiplies the weights when active.
+        self.edges = None
         #: Optional non-penetration prior (tracker.collision.CollisionPrior): multiplies the
         #: weights.
         self.collision = None
@@ -257,6 +259,8 @@ class SilhouetteLikelihood:
         w = weight_from_counts(self._counts(pts), self.measure)
         if self.appearance is not None and self.appearance.active:  # colour cue
             w = w * self.appearance.weight_factors(self.body, pts)
+        if self.edges is not None and self.edges.active and self.edges.everywhere:  # edge cue
+            w = w * self.edges.weight_factors(self.body, pts)
         if self.collision is not None:
             w = w * self.collision.factors(self.body, pts)
         return w
@@ -346,6 +350,8 @@ class SilhouetteLikelihood:
         w = weight_from_counts(self._counts_factored(*pts), self.measure)
         if self.appearance is not None and self.appearance.active:  # colour cue
             w = w * self.appearance.factor(self.appearance.scores_factored(self.body, *pts[:3]))
+        if self.edges is not None and self.edges.active and self.edges.everywhere:  # edge cue
+            w = w * self.edges.factor(self.edges.scores_factored(self.body, *pts[:3]))
         if self.collision is not None:  # the pairs lie in the base (upper body and pelvis)
             w = w * self.collision.factors(self.body, pts[0])[:, None, None]
         return w
@@ -372,6 +378,8 @@ class SilhouetteLikelihood:
         w = weight_from_counts(counts, self.measure)
         if self.appearance is not None and self.appearance.active:  # colour cue
             w = w * self.appearance.weight_factors(b, pts)
+        if self.edges is not None and self.edges.active and self.edges.everywhere:  # edge cue
+            w = w * self.edges.weight_factors(b, pts)
         if self.collision is not None:
             w = w * self.collision.factors(b, pts)
         return w

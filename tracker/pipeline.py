@@ -139,6 +139,7 @@ class _Observation:
     time_s: float
     masks: list[np.ndarray]
     colour: tuple[np.ndarray, np.ndarray] | None = None
+    edges: np.ndarray | None = None
 
 
 def _numba_threads(n: int):
@@ -385,6 +386,13 @@ class Tracker:
                 [cam.scaled(*c.appearance.size) for cam in self.cameras], c.appearance
             )
             likelihood.appearance = self.colour
+        #: The edge cue (config.edges), attached to the likelihood; None when off.
+        self.edge_cue = None
+        if c.edges.enabled and hasattr(likelihood, "edges"):
+            from tracker.edges import EdgeCue
+
+            self.edge_cue = EdgeCue([cam.scaled(*c.edges.size) for cam in self.cameras], c.edges)
+            likelihood.edges = self.edge_cue
         if c.collision.enabled and hasattr(likelihood, "collision"):
             from tracker.collision import CollisionPrior
 
@@ -627,6 +635,11 @@ class Tracker:
             else:
                 same = tuple(self.config.appearance.size) == tuple(self.config.likelihood_size)
                 self.colour.set_frame(frames, masks if same else [s.mask_full for s in segs])
+        if self.edge_cue is not None:  # edge cue: this frame's edges
+            if frames is None:
+                self.edge_cue.clear_frame()
+            else:
+                self.edge_cue.set_frame(frames, [s.mask_full for s in segs])
         if any(o is not None for o in self.occlusion):
             self._learn_occluders(masks, notes)
         obs = _Observation(int(frame_index), float(time_s), masks)
@@ -696,6 +709,8 @@ class Tracker:
                 pose, weight, joints = self._start_alternative(pose, weight, joints, time_s)
         if self.colour is not None:  # colour cue: learn from the estimate
             self._learn_colour(pose)
+        if self.edge_cue is not None:  # edge cue: the estimates' typical score
+            self.edge_cue.update(self.body, pose)
         self._remember(pose, time_s, dt, continuous=status == "tracked")
         self._prev_joints = joints
         for n in notes:
@@ -732,6 +747,8 @@ class Tracker:
         self._settled = 0 if restart else self._settled + 1
         if self.colour is not None:  # this frame's colours (estimating does not change them)
             obs.colour = self.colour.frame_state()
+        if self.edge_cue is not None:
+            obs.edges = self.edge_cue.frame_state()
         self._window.append((obs, res))
         fps = 1.0 / self.dt_default
         max_frames = max(2, int(round(rc.max_s * fps)))
@@ -800,6 +817,8 @@ class Tracker:
             b._lik.count = 0
             if b.colour is not None:
                 b.colour.restore_frame(obs.colour)
+            if b.edge_cue is not None:
+                b.edge_cue.restore_frame(obs.edges)
             mirrored = _Observation(obs.frame_index, 2.0 * t0 - obs.time_s, obs.masks)
             r = b._estimate(mirrored, [])
             if not r.has_pose:
@@ -1430,9 +1449,17 @@ class Tracker:
         ac = self.config.arms
         if not ac.enabled or len(self.cameras) < ac.min_cameras or self._estimate_legs:
             return pose, weight
+        rank = None
+        cue = self.edge_cue
+        if cue is not None and cue.config.scope == "arm_search" and cue.active:
+            body = self.body
+
+            def rank(poses: np.ndarray) -> np.ndarray:
+                return cue.weight_factors(body, body.points(poses))
+
         with _single_thread():
-            res = search_arms(self._lik, pose, weight, ac, limits=self.limits)
-        if not res.weight > weight:
+            res = search_arms(self._lik, pose, weight, ac, limits=self.limits, rank=rank)
+        if np.array_equal(res.pose, pose):  # nothing ranked above the pose
             return pose, weight
         if ac.inject:
             self.filter.inject(res.pose[None], np.array([res.weight]))
