@@ -210,3 +210,35 @@ def test_tracker_feeds_the_cue() -> None:
 
     far = cv2.erode(far.astype(np.uint8), np.ones((9, 9), np.uint8)) > 0
     assert np.abs(cue.maps[0][far]).max() == 0.0
+
+
+def test_output_scope_changes_only_the_written_arms() -> None:
+    """``scope = "output"``: the written pose may differ from the tracker's own estimate in the
+    arms only; the estimate (kept for the next frame) and the weights stay the silhouette's.
+    One camera (fewer than ``arms.min_cameras``): no cue at all."""
+    from tests.tracker_helpers import walking_clip
+    from tracker.pipeline import Tracker
+
+    clip = walking_clip()
+    cfg = TrackerConfig.model_validate(
+        {"edges": {"enabled": True, "scope": "output", "parts": ["upper_arm", "forearm"]}}
+    )
+    arm_dofs = [
+        DOF[f"{s}_{n}"]
+        for s in ("l", "r")
+        for n in ("shoulder_flexion", "shoulder_abduction", "shoulder_rotation", "elbow_flexion")
+    ]
+    others = np.setdiff1d(np.arange(N_DOF), arm_dofs)
+    tracker = Tracker(
+        clip["cams"], cfg, rng=np.random.default_rng(0), height_m=1.70, backgrounds=clip["bgs"]
+    )
+    assert tracker.edge_cue is not None and not tracker.edge_cue.everywhere
+    for k, images in enumerate(clip["frames"]):
+        res = tracker.process(k, k / 20.0, images)
+        assert res.has_pose
+        own = tracker.prev_pose
+        np.testing.assert_allclose(res.pose[others], own[others], atol=1e-12)
+        np.testing.assert_allclose(res.joints, tracker.body.forward(res.pose[None])[0])
+    assert tracker.edge_cue.active
+    one = Tracker(clip["cams"][:1], cfg, rng=np.random.default_rng(0), height_m=1.70)
+    assert one.edge_cue is None and one.likelihood.edges is None

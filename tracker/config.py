@@ -1164,10 +1164,12 @@ class EdgeConfig(_Model):
         ),
     ] = ("upper_arm", "forearm", "thigh", "shank")
     scope: Annotated[
-        Literal["all", "arm_search"],
+        Literal["all", "arm_search", "output"],
         Field(
             description="all: every weight of the likelihood; arm_search: only the arm "
-            "search's choice among its grid (tracker.arms), the filters' weights untouched"
+            "search's choice among its grid (tracker.arms), the filters' weights untouched; "
+            "output: only the written pose's arms (an arm search ranked with the cue after "
+            "each estimate; the tracker's own estimate keeps the silhouette's arms)"
         ),
     ] = "all"
     samples: Annotated[

@@ -388,7 +388,9 @@ class Tracker:
             likelihood.appearance = self.colour
         #: The edge cue (config.edges), attached to the likelihood; None when off.
         self.edge_cue = None
-        if c.edges.enabled and hasattr(likelihood, "edges"):
+        arms_only = c.edges.scope != "all"  # the cue ranks arm searches only: are there any?
+        searched = c.arms.enabled and len(self.cameras) >= c.arms.min_cameras
+        if c.edges.enabled and hasattr(likelihood, "edges") and (searched or not arms_only):
             from tracker.edges import EdgeCue
 
             self.edge_cue = EdgeCue([cam.scaled(*c.edges.size) for cam in self.cameras], c.edges)
@@ -713,6 +715,7 @@ class Tracker:
             self.edge_cue.update(self.body, pose)
         self._remember(pose, time_s, dt, continuous=status == "tracked")
         self._prev_joints = joints
+        pose, joints = self._output_arms(pose, joints)
         for n in notes:
             log.info("frame %d: %s", frame_index, n)
         return FrameResult(
@@ -1464,6 +1467,28 @@ class Tracker:
         if ac.inject:
             self.filter.inject(res.pose[None], np.array([res.weight]))
         return res.pose.copy(), float(res.weight)
+
+    def _output_arms(self, pose: np.ndarray, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``edges.scope = "output"``: the written pose's arms are chosen by the arm search's
+        grid ranked with the edge cue (silhouette weight times edge factor); the tracker's own
+        estimate, its particles and its memory keep the silhouette's arms. With at least
+        ``arms.min_cameras`` cameras, once the cue is active."""
+        cue, ac = self.edge_cue, self.config.arms
+        if cue is None or cue.config.scope != "output" or not cue.active:
+            return pose, joints
+        if len(self.cameras) < ac.min_cameras:
+            return pose, joints
+        body = self.body
+
+        def rank(poses: np.ndarray) -> np.ndarray:
+            return cue.weight_factors(body, body.points(poses))
+
+        weight = float(self._lik.weights(pose[None])[0])
+        with _single_thread():
+            res = search_arms(self._lik, pose, weight, ac, limits=self.limits, rank=rank)
+        if np.array_equal(res.pose, pose):
+            return pose, joints
+        return res.pose.copy(), np.asarray(body.forward(res.pose[None]))[0]
 
     def _refine_origin(
         self, pose: np.ndarray, weight: float, dt: float
