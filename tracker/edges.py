@@ -27,9 +27,11 @@ Scoring (:meth:`EdgeCue.scores`, :meth:`EdgeCue.scores_factored`)
     weight by ``(score / typical) ** beta``, ``typical`` the score of recent estimates (weights
     stay on the silhouette's scale).
 
-Nothing is learned about the person: the cue is active from the first estimate on (it needs
-``typical``). The hot path is a numba kernel over the poses (``parallel=True``, chunks like
-:mod:`tracker.raster`).
+Where it applies (``config.scope``): ``all``, every weight of the likelihood; ``arm_search``,
+only the arm search's choice among its grid (:mod:`tracker.arms`); ``output``, only the arms
+of the written pose (the pipeline's ``Tracker._output_arms``). Nothing is learned about the
+person: the cue is active from the first estimate on (it needs ``typical``). The hot path is
+a numba kernel over the poses (``parallel=True``, chunks like :mod:`tracker.raster`).
 """
 
 from __future__ import annotations
