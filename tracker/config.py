@@ -1142,6 +1142,13 @@ class AppearanceConfig(_Model):
     ] = 4
 
 
+def _image_size(v: tuple[int, int]) -> tuple[int, int]:
+    """Validate an image size (width, height) of the tracker's working images."""
+    if not (8 <= v[0] <= 4096 and 8 <= v[1] <= 4096):
+        raise ValueError("width and height must be within 8..4096")
+    return v
+
+
 class EdgeConfig(_Model):
     """The edge cue (:mod:`tracker.edges`): the limbs' projected outlines scored against the
     frame's edges; the weight is multiplied by ``(score / typical) ** beta``. Off by default
@@ -1234,9 +1241,7 @@ class EdgeConfig(_Model):
     @field_validator("size")
     @classmethod
     def _size(cls, v: tuple[int, int]) -> tuple[int, int]:
-        if not (8 <= v[0] <= 4096 and 8 <= v[1] <= 4096):
-            raise ValueError("width and height must be within 8..4096")
-        return v
+        return _image_size(v)
 
 
 class SmoothingConfig(_Model):
@@ -1481,9 +1486,7 @@ class TrackerConfig(_Model):
     @field_validator("likelihood_size")
     @classmethod
     def _size(cls, v: tuple[int, int]) -> tuple[int, int]:
-        if not (8 <= v[0] <= 4096 and 8 <= v[1] <= 4096):
-            raise ValueError("width and height must be within 8..4096")
-        return v
+        return _image_size(v)
 
     @field_validator("part_box")
     @classmethod
