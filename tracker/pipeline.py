@@ -1452,14 +1452,7 @@ class Tracker:
         ac = self.config.arms
         if not ac.enabled or len(self.cameras) < ac.min_cameras or self._estimate_legs:
             return pose, weight
-        rank = None
-        cue = self.edge_cue
-        if cue is not None and cue.config.scope == "arm_search" and cue.active:
-            body = self.body
-
-            def rank(poses: np.ndarray) -> np.ndarray:
-                return cue.weight_factors(body, body.points(poses))
-
+        rank = self._edge_rank("arm_search")
         with _single_thread():
             res = search_arms(self._lik, pose, weight, ac, limits=self.limits, rank=rank)
         if np.array_equal(res.pose, pose):  # nothing ranked above the pose
@@ -1468,27 +1461,30 @@ class Tracker:
             self.filter.inject(res.pose[None], np.array([res.weight]))
         return res.pose.copy(), float(res.weight)
 
+    def _edge_rank(self, scope: str):
+        """The edge cue's factor of poses ``(N, 31)`` for an arm search, when the cue is on in
+        ``scope`` and active; None otherwise (the search ranks by weight alone)."""
+        cue, body = self.edge_cue, self.body
+        if cue is None or cue.config.scope != scope or not cue.active:
+            return None
+        return lambda poses: cue.weight_factors(body, body.points(poses))
+
     def _output_arms(self, pose: np.ndarray, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``edges.scope = "output"``: the written pose's arms are chosen by the arm search's
         grid ranked with the edge cue (silhouette weight times edge factor); the tracker's own
-        estimate, its particles and its memory keep the silhouette's arms. With at least
-        ``arms.min_cameras`` cameras, once the cue is active."""
-        cue, ac = self.edge_cue, self.config.arms
-        if cue is None or cue.config.scope != "output" or not cue.active:
+        estimate, its particles and its memory keep the silhouette's arms. The cue exists only
+        with the arm search (``arms.min_cameras`` cameras or more) and ranks once active."""
+        rank = self._edge_rank("output")
+        if rank is None:
             return pose, joints
-        if len(self.cameras) < ac.min_cameras:
-            return pose, joints
-        body = self.body
-
-        def rank(poses: np.ndarray) -> np.ndarray:
-            return cue.weight_factors(body, body.points(poses))
-
         weight = float(self._lik.weights(pose[None])[0])
         with _single_thread():
-            res = search_arms(self._lik, pose, weight, ac, limits=self.limits, rank=rank)
+            res = search_arms(
+                self._lik, pose, weight, self.config.arms, limits=self.limits, rank=rank
+            )
         if np.array_equal(res.pose, pose):
             return pose, joints
-        return res.pose.copy(), np.asarray(body.forward(res.pose[None]))[0]
+        return res.pose.copy(), np.asarray(self.body.forward(res.pose[None]))[0]
 
     def _refine_origin(
         self, pose: np.ndarray, weight: float, dt: float
