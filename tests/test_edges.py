@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 from pydantic import ValidationError
@@ -242,3 +243,64 @@ def test_output_scope_changes_only_the_written_arms() -> None:
     assert tracker.edge_cue.active
     one = Tracker(clip["cams"][:1], cfg, rng=np.random.default_rng(0), height_m=1.70)
     assert one.edge_cue is None and one.likelihood.edges is None
+
+
+def _edge_map_whole_frame(frame, sil, size, blur_px, margin_px, interior_px):
+    """The edge map computed over the whole frame, as before the bounding-box crop."""
+    from tracker.appearance import lab_image
+
+    w, h = size
+    lab = lab_image(frame, size, 1.0)
+    if blur_px > 0:
+        lab = cv2.GaussianBlur(lab, (0, 0), blur_px)
+    s = cv2.resize(sil.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST)
+    out = np.zeros((h, w, 6), np.float32)
+    for c in range(3):
+        out[..., 2 * c] = cv2.Sobel(lab[..., c], cv2.CV_32F, 1, 0, ksize=3) / 8.0
+        out[..., 2 * c + 1] = cv2.Sobel(lab[..., c], cv2.CV_32F, 0, 1, ksize=3) / 8.0
+    inside = s > 0
+    near = inside
+    if margin_px > 0:
+        near = cv2.dilate(s, np.ones((2 * margin_px + 1,) * 2, np.uint8)) > 0
+    out[~near] = 0.0
+    mag = np.sqrt((out[inside] ** 2).sum(axis=1))
+    if interior_px > 0:
+        out[cv2.erode(s, np.ones((2 * interior_px + 1,) * 2, np.uint8)) == 0] = 0.0
+    return out / np.float32(max(float(np.percentile(mag, 90.0)), 2.0))
+
+
+@pytest.mark.parametrize(
+    ("blur_px", "margin_px", "interior_px"), [(1.0, 2, 0), (2.5, 2, 0), (0.0, 0, 0), (1.0, 2, 3)]
+)
+def test_edge_map_on_the_bounding_box_equals_the_whole_frame(
+    blur_px: float, margin_px: int, interior_px: int
+) -> None:
+    rng = np.random.default_rng(7)
+    img = cv2.GaussianBlur(rng.integers(0, 256, (240, 320, 3), dtype=np.uint8), (0, 0), 2.0)
+    for box in ((slice(60, 200), slice(120, 180)), (slice(100, 240), slice(0, 40))):
+        sil = np.zeros((240, 320), bool)
+        sil[box] = True
+        sil[box[0].start + 10 : box[0].start + 30, box[1].start : box[1].start + 5] = False
+        kw = dict(blur_px=blur_px, margin_px=margin_px, interior_px=interior_px)
+        want = _edge_map_whole_frame(img, sil, (160, 120), **kw)
+        got = edge_map(img, sil, (160, 120), **kw)
+        assert np.abs(want).max() > 0.5
+        # OpenCV's vectorised filters may round the last bit differently by position
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-5)
+
+
+def test_frame_state_keeps_the_silhouettes_box_only(body, cameras, scene) -> None:
+    cue = _cue(cameras, scene)
+    full = cue.maps.copy()
+    state = cue.frame_state()
+    kept = sum(m.nbytes for _, _, m in state if m is not None)
+    assert kept < full.nbytes / 2
+    other = [np.zeros_like(scene["masks"][0])] + list(scene["masks"][1:])
+    other[0][10:20, 10:20] = True  # another frame: a small blob elsewhere in camera 0
+    cue.set_frame(scene["frames"], other)
+    assert not np.array_equal(cue.maps, full)
+    cue.restore_frame(state)
+    np.testing.assert_array_equal(cue.maps, full)
+    # nobody in view in one camera: its map is all zero, its state None
+    cue.set_frame(scene["frames"], [np.zeros_like(scene["masks"][0]), scene["masks"][1]])
+    assert not cue.maps[0].any() and cue.frame_state()[0] is None

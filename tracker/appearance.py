@@ -97,7 +97,9 @@ def lab_image(frame: np.ndarray, size: tuple[int, int], lightness_weight: float)
         f = cv2.cvtColor(f, cv2.COLOR_GRAY2BGR)
     if f.ndim != 3 or f.shape[2] != 3:
         raise ValueError(f"frame must be (H, W, 3) BGR or (H, W) grey, got {f.shape}")
-    small = cv2.resize(f, size, interpolation=cv2.INTER_LINEAR)
+    small = (
+        f if f.shape[1::-1] == tuple(size) else cv2.resize(f, size, interpolation=cv2.INTER_LINEAR)
+    )
     # 8-bit Lab (OpenCV: L * 255 / 100, a + 128, b + 128; within 1 unit of the float
     # conversion and ten times faster)
     lab = cv2.cvtColor(small, cv2.COLOR_BGR2Lab).astype(np.float32)

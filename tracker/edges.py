@@ -98,18 +98,71 @@ def edge_map(
     silhouette term's; the interior is what it cannot see).
 
     ``silhouette`` is a bool mask of any size (resized to ``size``, nearest). A silhouette
-    without pixels gives an all-zero map."""
+    without pixels gives an all-zero map. The work is done on the silhouette's bounding box
+    (:func:`edge_map_crop`); the map is the same as over the whole frame."""
     w, h = size
-    lab = lab_image(frame, size, lightness_weight)
-    if blur_px > 0:
-        lab = cv2.GaussianBlur(lab, (0, 0), blur_px)
+    out = np.zeros((h, w, N_CHANNELS), dtype=np.float32)
+    crop = edge_map_crop(
+        frame,
+        silhouette,
+        size,
+        lightness_weight=lightness_weight,
+        blur_px=blur_px,
+        margin_px=margin_px,
+        scale_percentile=scale_percentile,
+        min_scale=min_scale,
+        interior_px=interior_px,
+    )
+    if crop is not None:
+        y0, x0, m = crop
+        out[y0 : y0 + m.shape[0], x0 : x0 + m.shape[1]] = m
+    return out
+
+
+def edge_map_crop(
+    frame: np.ndarray,
+    silhouette: np.ndarray,
+    size: tuple[int, int],
+    *,
+    lightness_weight: float = 1.0,
+    blur_px: float = 1.0,
+    margin_px: int = 2,
+    scale_percentile: float = 90.0,
+    min_scale: float = 2.0,
+    interior_px: int = 0,
+) -> tuple[int, int, np.ndarray] | None:
+    """:func:`edge_map`'s non-zero part: ``(y0, x0, map)`` with ``map`` the edge map's rows
+    ``y0:y0 + map.shape[0]`` and columns ``x0:x0 + map.shape[1]`` (zero elsewhere); None
+    when the silhouette has no pixel.
+
+    The Lab conversion, smoothing and gradient run on the silhouette's bounding box grown by
+    ``margin_px`` plus the Gaussian's and the Sobel kernel's reach, so every pixel kept sees
+    the same neighbourhood as over the whole frame (a tenth of its area for a person at a
+    few metres)."""
+    w, h = size
     s = np.asarray(silhouette, dtype=np.uint8)
     if s.shape != (h, w):
         s = cv2.resize(s, size, interpolation=cv2.INTER_NEAREST)
-    out = np.zeros((h, w, N_CHANNELS), dtype=np.float32)
+    bx, by, bw, bh = cv2.boundingRect(s)
+    if bw == 0 or bh == 0:
+        return None
+    # the Gaussian's half-width (OpenCV's kernel for a float image: 8 sigma + 1 taps), the
+    # Sobel's 1 pixel, 1 spare
+    reach = int(margin_px) + (int(round(4.0 * blur_px)) if blur_px > 0 else 0) + 2
+    x0, y0 = max(0, bx - reach), max(0, by - reach)
+    x1, y1 = min(w, bx + bw + reach), min(h, by + bh + reach)
+    f = np.asarray(frame)
+    if f.ndim == 2:
+        f = cv2.cvtColor(f, cv2.COLOR_GRAY2BGR)
+    if f.ndim != 3 or f.shape[2] != 3:
+        raise ValueError(f"frame must be (H, W, 3) BGR or (H, W) grey, got {f.shape}")
+    small = cv2.resize(f, size, interpolation=cv2.INTER_LINEAR)[y0:y1, x0:x1]
+    lab = lab_image(small, (x1 - x0, y1 - y0), lightness_weight)
+    if blur_px > 0:
+        lab = cv2.GaussianBlur(lab, (0, 0), blur_px)
+    s = s[y0:y1, x0:x1]
+    out = np.empty((y1 - y0, x1 - x0, N_CHANNELS), dtype=np.float32)
     inside = s > 0
-    if not inside.any():
-        return out
     near = inside
     if margin_px > 0:
         k = 2 * int(margin_px) + 1
@@ -122,10 +175,11 @@ def edge_map(
     mag = np.sqrt((out[inside] ** 2).sum(axis=1))
     if interior_px > 0:
         k = 2 * int(interior_px) + 1
+        # inside the frame the crop's edge lies beyond a band of background: the same result
         out[cv2.erode(s, np.ones((k, k), np.uint8)) == 0] = 0.0
     scale = max(float(np.percentile(mag, scale_percentile)), float(min_scale), 1e-6)
     out /= np.float32(scale)
-    return out
+    return y0, x0, out
 
 
 @nb.njit(cache=True, nogil=True)
@@ -273,6 +327,7 @@ class EdgeCue:
         hmax, wmax = int(self.cam_hw[:, 0].max()), int(self.cam_hw[:, 1].max())
         self.maps = np.zeros((len(self.cameras), hmax, wmax, N_CHANNELS), dtype=np.float32)
         self.has_frame = False
+        self._crops: list[tuple[int, int, np.ndarray] | None] = []  # the maps' boxes
         #: The edge score of recent estimates (the normaliser of the factor), None at first.
         self.typical: float | None = None
         self._sel_cache: dict[tuple[int | None, int], np.ndarray] = {}
@@ -287,9 +342,8 @@ class EdgeCue:
                 f"got {len(frames)} and {len(silhouettes)}"
             )
         c = self.config
-        self.maps[...] = 0.0
-        for k, (f, s, cam) in enumerate(zip(frames, silhouettes, self.cameras, strict=True)):
-            self.maps[k, : cam.height, : cam.width] = edge_map(
+        crops = [
+            edge_map_crop(
                 f,
                 s,
                 (cam.width, cam.height),
@@ -300,19 +354,39 @@ class EdgeCue:
                 min_scale=c.min_scale,
                 interior_px=c.interior_px,
             )
+            for f, s, cam in zip(frames, silhouettes, self.cameras, strict=True)
+        ]
+        self._paste(crops)
+
+    def _paste(self, crops: list[tuple[int, int, np.ndarray] | None]) -> None:
+        self._clear_boxes()
+        for k, crop in enumerate(crops):
+            if crop is not None:
+                y0, x0, m = crop
+                self.maps[k, y0 : y0 + m.shape[0], x0 : x0 + m.shape[1]] = m
+        self._crops = crops
         self.has_frame = True
 
-    def frame_state(self) -> np.ndarray | None:
-        """The current edge maps (a copy; None without a frame), for :meth:`restore_frame`."""
-        return self.maps.copy() if self.has_frame else None
+    def _clear_boxes(self) -> None:
+        """Zero the maps where the last frame wrote (the rest is zero already)."""
+        for k, crop in enumerate(self._crops):
+            if crop is not None:
+                y0, x0, m = crop
+                self.maps[k, y0 : y0 + m.shape[0], x0 : x0 + m.shape[1]] = 0.0
+        self._crops = []
 
-    def restore_frame(self, state: np.ndarray | None) -> None:
+    def frame_state(self) -> list | None:
+        """The current edge maps' non-zero boxes (None without a frame), for
+        :meth:`restore_frame`: the silhouette's bounding box per camera, a tenth of the whole
+        maps' memory for a person at a few metres."""
+        return list(self._crops) if self.has_frame else None
+
+    def restore_frame(self, state: list | None) -> None:
         """Make maps kept by :meth:`frame_state` the current ones (None: no frame)."""
         if state is None:
             self.clear_frame()
             return
-        self.maps[...] = state
-        self.has_frame = True
+        self._paste(list(state))
 
     def clear_frame(self) -> None:
         """No frame for this time step: the cue does not score until the next one is set."""
@@ -392,4 +466,4 @@ class EdgeCue:
         self.typical = None
 
 
-__all__ = ["EDGE_PARTS", "EdgeCue", "capsules_of", "edge_map", "edge_sums_kernel"]
+__all__ = ["EDGE_PARTS", "EdgeCue", "capsules_of", "edge_map", "edge_map_crop", "edge_sums_kernel"]

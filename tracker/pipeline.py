@@ -139,7 +139,7 @@ class _Observation:
     time_s: float
     masks: list[np.ndarray]
     colour: tuple[np.ndarray, np.ndarray] | None = None
-    edges: np.ndarray | None = None
+    edges: list | None = None  # the edge cue's frame_state
 
 
 def _numba_threads(n: int):
