@@ -68,6 +68,12 @@ def test_edge_map_sees_an_edge_inside_the_silhouette_only() -> None:
     assert not edge_map(img, np.zeros((100, 100), bool), (100, 100)).any()
     flat = np.full((100, 100, 3), 90, np.uint8)
     assert not edge_map(flat, sil, (100, 100)).any()
+    # a grey frame is a BGR one with equal channels; other shapes are refused
+    np.testing.assert_array_equal(
+        edge_map(img[..., 0], sil, (100, 100)), edge_map(img, sil, (100, 100))
+    )
+    with pytest.raises(ValueError, match="frame must be"):
+        edge_map(np.zeros((100, 100, 4), np.uint8), sil, (100, 100))
     # sensor noise alone stays far below an edge's score
     noisy = np.clip(flat + np.random.default_rng(0).normal(0, 3, flat.shape), 0, 255)
     mag = np.sqrt((edge_map(noisy.astype(np.uint8), sil, (100, 100)) ** 2).sum(axis=2))

@@ -78,41 +78,14 @@ def capsules_of(parts: Sequence[str]) -> np.ndarray:
 
 
 def edge_map(
-    frame: np.ndarray,
-    silhouette: np.ndarray,
-    size: tuple[int, int],
-    *,
-    lightness_weight: float = 1.0,
-    blur_px: float = 1.0,
-    margin_px: int = 2,
-    scale_percentile: float = 90.0,
-    min_scale: float = 2.0,
-    interior_px: int = 0,
+    frame: np.ndarray, silhouette: np.ndarray, size: tuple[int, int], **options
 ) -> np.ndarray:
-    """One camera's edge map ``(h, w, 6)`` float32 at ``size`` = (w, h): the Lab gradient
-    ``(gx, gy)`` per channel, zero outside the silhouette grown by ``margin_px``, in units of
-    the ``scale_percentile``-th percentile of its magnitude inside the silhouette, or of
-    ``min_scale`` (Lab units per pixel) if that is larger (a plain person in a clean image
-    has few edges; sensor noise must not score). ``interior_px`` > 0 keeps only the edges
-    inside the silhouette eroded by that many pixels (the outline against the room is the
-    silhouette term's; the interior is what it cannot see).
-
-    ``silhouette`` is a bool mask of any size (resized to ``size``, nearest). A silhouette
-    without pixels gives an all-zero map. The work is done on the silhouette's bounding box
-    (:func:`edge_map_crop`); the map is the same as over the whole frame."""
+    """One camera's edge map ``(h, w, 6)`` float32 at ``size`` = (w, h); ``options`` and the
+    map's definition as in :func:`edge_map_crop`, which computes its non-zero box (everything
+    outside it is zero)."""
     w, h = size
     out = np.zeros((h, w, N_CHANNELS), dtype=np.float32)
-    crop = edge_map_crop(
-        frame,
-        silhouette,
-        size,
-        lightness_weight=lightness_weight,
-        blur_px=blur_px,
-        margin_px=margin_px,
-        scale_percentile=scale_percentile,
-        min_scale=min_scale,
-        interior_px=interior_px,
-    )
+    crop = edge_map_crop(frame, silhouette, size, **options)
     if crop is not None:
         y0, x0, m = crop
         out[y0 : y0 + m.shape[0], x0 : x0 + m.shape[1]] = m
@@ -131,14 +104,22 @@ def edge_map_crop(
     min_scale: float = 2.0,
     interior_px: int = 0,
 ) -> tuple[int, int, np.ndarray] | None:
-    """:func:`edge_map`'s non-zero part: ``(y0, x0, map)`` with ``map`` the edge map's rows
-    ``y0:y0 + map.shape[0]`` and columns ``x0:x0 + map.shape[1]`` (zero elsewhere); None
-    when the silhouette has no pixel.
+    """The non-zero part of one camera's edge map at ``size`` = (w, h): ``(y0, x0, map)``,
+    ``map`` float32 ``(rows, cols, 6)`` holding the edge map's rows ``y0:y0 + rows`` and columns
+    ``x0:x0 + cols``; None when the silhouette has no pixel (the whole map is zero).
+
+    The edge map is the Lab gradient ``(gx, gy)`` per channel, zero outside the silhouette
+    grown by ``margin_px``, in units of the ``scale_percentile``-th percentile of its magnitude
+    inside the silhouette, or of ``min_scale`` (Lab units per pixel) if that is larger (a plain
+    person in a clean image has few edges; sensor noise must not score). ``interior_px`` > 0
+    keeps only the edges inside the silhouette eroded by that many pixels (the outline against
+    the room is the silhouette term's; the interior is what it cannot see). ``silhouette`` is
+    a bool mask of any size (resized to ``size``, nearest).
 
     The Lab conversion, smoothing and gradient run on the silhouette's bounding box grown by
     ``margin_px`` plus the Gaussian's and the Sobel kernel's reach, so every pixel kept sees
-    the same neighbourhood as over the whole frame (a tenth of its area for a person at a
-    few metres)."""
+    the same neighbourhood as over the whole frame (a tenth of its area for a person at a few
+    metres)."""
     w, h = size
     s = np.asarray(silhouette, dtype=np.uint8)
     if s.shape != (h, w):
@@ -151,13 +132,8 @@ def edge_map_crop(
     reach = int(margin_px) + (int(round(4.0 * blur_px)) if blur_px > 0 else 0) + 2
     x0, y0 = max(0, bx - reach), max(0, by - reach)
     x1, y1 = min(w, bx + bw + reach), min(h, by + bh + reach)
-    f = np.asarray(frame)
-    if f.ndim == 2:
-        f = cv2.cvtColor(f, cv2.COLOR_GRAY2BGR)
-    if f.ndim != 3 or f.shape[2] != 3:
-        raise ValueError(f"frame must be (H, W, 3) BGR or (H, W) grey, got {f.shape}")
-    small = cv2.resize(f, size, interpolation=cv2.INTER_LINEAR)[y0:y1, x0:x1]
-    lab = lab_image(small, (x1 - x0, y1 - y0), lightness_weight)
+    small = cv2.resize(np.asarray(frame), size, interpolation=cv2.INTER_LINEAR)[y0:y1, x0:x1]
+    lab = lab_image(small, (x1 - x0, y1 - y0), lightness_weight)  # checks the frame's shape
     if blur_px > 0:
         lab = cv2.GaussianBlur(lab, (0, 0), blur_px)
     s = s[y0:y1, x0:x1]
