@@ -118,8 +118,8 @@ def edge_map_crop(
 
     The Lab conversion, smoothing and gradient run on the silhouette's bounding box grown by
     ``margin_px`` plus the Gaussian's and the Sobel kernel's reach, so every pixel kept sees
-    the same neighbourhood as over the whole frame (a tenth of its area for a person at a few
-    metres)."""
+    the same neighbourhood as over the whole frame (14-25 % of its area on 16 frames of the
+    benchmark's scenes)."""
     w, h = size
     s = np.asarray(silhouette, dtype=np.uint8)
     if s.shape != (h, w):
@@ -353,8 +353,8 @@ class EdgeCue:
 
     def frame_state(self) -> list | None:
         """The current edge maps' non-zero boxes (None without a frame), for
-        :meth:`restore_frame`: the silhouette's bounding box per camera, a tenth of the whole
-        maps' memory for a person at a few metres."""
+        :meth:`restore_frame`: the silhouette's bounding box (grown by the kernels' reach) per
+        camera, instead of the whole maps."""
         return list(self._crops) if self.has_frame else None
 
     def restore_frame(self, state: list | None) -> None:
