@@ -159,17 +159,8 @@ def _sums_range(
             for j in range(sel.shape[0]):
                 c = sel[j]
                 p = cap_part[c]
-                ia = cap_ab[c, 0]
-                ib = cap_ab[c, 1]
-                ua, va, _, oka = raster.project_point(
-                    pts[i, ia, 0], pts[i, ia, 1], pts[i, ia, 2], cams, k
-                )
-                if not oka:
-                    continue
-                ub, vb, _, okb = raster.project_point(
-                    pts[i, ib, 0], pts[i, ib, 1], pts[i, ib, 2], cams, k
-                )
-                if not okb:
+                ua, va, _, ub, vb, _, ok = raster.project_capsule(pts, i, cap_ab, c, cams, k)
+                if not ok:
                     continue
                 for s in range(ts.shape[0]):
                     t = ts[s]

@@ -179,17 +179,8 @@ def _edge_sums_range(
             acc = 0.0
             for j in range(sel.shape[0]):
                 c = sel[j]
-                ia = cap_ab[c, 0]
-                ib = cap_ab[c, 1]
-                ua, va, sa, oka = raster.project_point(
-                    pts[i, ia, 0], pts[i, ia, 1], pts[i, ia, 2], cams, k
-                )
-                if not oka:
-                    continue
-                ub, vb, sb, okb = raster.project_point(
-                    pts[i, ib, 0], pts[i, ib, 1], pts[i, ib, 2], cams, k
-                )
-                if not okb:
+                ua, va, sa, ub, vb, sb, ok = raster.project_capsule(pts, i, cap_ab, c, cams, k)
+                if not ok:
                     continue
                 du = ub - ua
                 dv = vb - va

@@ -175,6 +175,22 @@ def project_point(
 
 
 @nb.njit(cache=True, inline="always")
+def project_capsule(
+    pts: np.ndarray, i: int, cap_ab: np.ndarray, c: int, cams: np.ndarray, k: int
+) -> tuple[float, float, float, float, float, float, bool]:
+    """Project both ends of capsule c of pose i (``pts`` (N, P, 3), ``cap_ab`` (C, 2) point
+    indices) with packed camera k: ``(ua, va, pixels per metre at a, ub, vb, at b, ok)``,
+    ``ok`` False when either end is behind the camera (the rest is then meaningless)."""
+    ia = cap_ab[c, 0]
+    ib = cap_ab[c, 1]
+    ua, va, sa, oka = project_point(pts[i, ia, 0], pts[i, ia, 1], pts[i, ia, 2], cams, k)
+    if not oka:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False
+    ub, vb, sb, okb = project_point(pts[i, ib, 0], pts[i, ib, 1], pts[i, ib, 2], cams, k)
+    return ua, va, sa, ub, vb, sb, okb
+
+
+@nb.njit(cache=True, inline="always")
 def _emit_span(mask: np.ndarray, slot: int, y: int, xl: float, xr: float, wmax: float) -> None:
     """Set the pixels of row y of mask[slot] whose centres lie in [xl, xr] (wmax = W - 1)."""
     if xl > xr or xr < 0.0 or xl > wmax:
@@ -420,13 +436,8 @@ def render_capsules(
     """
     for ci in range(sel.shape[0]):
         c = sel[ci]
-        ia = cap_ab[c, 0]
-        ib = cap_ab[c, 1]
-        ua, va, sa, oka = project_point(pts[i, ia, 0], pts[i, ia, 1], pts[i, ia, 2], cams, k)
-        if not oka:
-            continue
-        ub, vb, sb, okb = project_point(pts[i, ib, 0], pts[i, ib, 1], pts[i, ib, 2], cams, k)
-        if not okb:
+        ua, va, sa, ub, vb, sb, ok = project_capsule(pts, i, cap_ab, c, cams, k)
+        if not ok:
             continue
         raster_capsule(
             ua, va, radii[c, 0] * sa, ub, vb, radii[c, 1] * sb, mask, slot, height, width, bbox
