@@ -285,10 +285,7 @@ class ColourCue:
     def __init__(self, cameras: Sequence[Camera], config) -> None:
         self.config = config
         self.cameras = list(cameras)
-        self.cams = np.ascontiguousarray(
-            np.stack([raster.pack_camera(c.R, c.t, c.K, c.dist) for c in self.cameras])
-        )
-        self.cam_hw = np.array([[c.height, c.width] for c in self.cameras], dtype=np.int64)
+        self.cams, self.cam_hw = raster.pack_cameras(self.cameras)
         self.part_names, self.cap_part = part_table(config.merge_sides)
         unknown = set(config.parts or ()) - set(self.part_names)
         if unknown:

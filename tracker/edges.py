@@ -284,10 +284,7 @@ class EdgeCue:
     def __init__(self, cameras: Sequence[Camera], config) -> None:
         self.config = config
         self.cameras = list(cameras)
-        self.cams = np.ascontiguousarray(
-            np.stack([raster.pack_camera(c.R, c.t, c.K, c.dist) for c in self.cameras])
-        )
-        self.cam_hw = np.array([[c.height, c.width] for c in self.cameras], dtype=np.int64)
+        self.cams, self.cam_hw = raster.pack_cameras(self.cameras)
         self.cap_on = capsules_of(config.parts)
         m = config.axis_margin
         self.ts = np.linspace(m, 1.0 - m, config.samples)

@@ -131,14 +131,7 @@ class SilhouetteLikelihood:
         self.cameras = list(cameras)
         self.measure: Measure = measure
         k = len(self.cameras)
-        rows = []
-        for c in self.cameras:
-            try:
-                rows.append(raster.pack_camera(c.R, c.t, c.K, c.dist))
-            except ValueError as err:
-                raise ValueError(f"camera {c.name}: {err}") from None
-        self.cams = np.ascontiguousarray(np.stack(rows))
-        self.cam_hw = np.array([[c.height, c.width] for c in self.cameras], dtype=np.int64)
+        self.cams, self.cam_hw = raster.pack_cameras(self.cameras)
         self._hmax = int(self.cam_hw[:, 0].max())
         self._words = int((self.cam_hw[:, 1].max() + 63) // 64)
         self._sil: np.ndarray | None = None

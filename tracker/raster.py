@@ -122,6 +122,20 @@ def pack_camera(R: np.ndarray, t: np.ndarray, K: np.ndarray, dist: np.ndarray) -
     return row
 
 
+def pack_cameras(cameras) -> tuple[np.ndarray, np.ndarray]:
+    """Cameras (objects with ``R, t, K, dist, height, width, name``) as the kernels read them:
+    the packed rows ``(K, 32)`` (:func:`pack_camera`) and the image sizes ``(K, 2)`` int64
+    ``(height, width)``. A camera the kernels cannot use raises ValueError naming it."""
+    rows = []
+    for c in cameras:
+        try:
+            rows.append(pack_camera(c.R, c.t, c.K, c.dist))
+        except ValueError as err:
+            raise ValueError(f"camera {c.name}: {err}") from None
+    cam_hw = np.array([[c.height, c.width] for c in cameras], dtype=np.int64)
+    return np.ascontiguousarray(np.stack(rows)), cam_hw
+
+
 @nb.njit(cache=True, inline="always")
 def _distort(x: float, y: float, cams: np.ndarray, k: int) -> tuple[float, float]:
     """OpenCV distortion of normalised coordinates with the coefficients of camera k."""
