@@ -272,7 +272,47 @@ def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.n
     return np.linalg.norm(p[:, None, :] - q, axis=2), t
 
 
-class ColourCue:
+class CapsuleSumsCue:
+    """What the image cues scored along capsules share (the colour cue, :mod:`tracker.edges`):
+    a score per pose and camera that sums over the selected capsules, so it factors over the
+    legs like the silhouette counts.
+
+    A subclass sets ``_on`` (bool per capsule, hem capsules included) and ``_sel_cache = {}``,
+    and defines ``_sums(body, pts, group)`` (summed scores ``(N, K)`` of the capsules of
+    ``group``: 0 base, 1 left leg, 2 right leg, None all) and ``_norm(body)`` (the number of
+    points a score sums over)."""
+
+    def _sel(self, body: BodyModel, group: int | None) -> np.ndarray:
+        n = len(body.capsule_groups)
+        sel = self._sel_cache.get((group, n))
+        if sel is None:
+            on = self._on[:n]
+            if group is not None:
+                on = on & (body.capsule_groups == group)
+            sel = self._sel_cache[(group, n)] = np.flatnonzero(on).astype(np.int64)
+        return sel
+
+    def scores(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
+        """Scores ``(N,)`` in [0, 1] of poses given their model points ``(N, P, 3)``: the mean
+        over the points and the cameras."""
+        return self._sums(body, pts, None).mean(axis=1) / self._norm(body)
+
+    def scores_factored(
+        self, body: BodyModel, pts_base: np.ndarray, pts_left: np.ndarray, pts_right: np.ndarray
+    ) -> np.ndarray:
+        """Scores ``(M, A, B)`` of every leg combination (see
+        ``SilhouetteLikelihood.weights_factored``) from the points of the base poses ``(M, P,
+        3)`` and of the leg variants ``(M * A, P, 3)``, ``(M * B, P, 3)``; equal to
+        :meth:`scores` of the combined poses."""
+        m = pts_base.shape[0]
+        sb = self._sums(body, pts_base, 0)
+        sl = self._sums(body, pts_left, 1).reshape(m, -1, sb.shape[1])
+        sr = self._sums(body, pts_right, 2).reshape(m, -1, sb.shape[1])
+        tot = sb[:, None, None, :] + sl[:, :, None, :] + sr[:, None, :, :]
+        return tot.mean(axis=3) / self._norm(body)
+
+
+class ColourCue(CapsuleSumsCue):
     """Per-part reference colours of one person and the colour score of poses.
 
     Parameters
@@ -395,16 +435,6 @@ class ColourCue:
         self._maps = None
         self._sel_cache: dict[tuple[int | None, int], np.ndarray] = {}
 
-    def _sel(self, body: BodyModel, group: int | None) -> np.ndarray:
-        n = len(body.capsule_groups)
-        sel = self._sel_cache.get((group, n))
-        if sel is None:
-            on = self._on[:n]
-            if group is not None:
-                on = on & (body.capsule_groups == group)
-            sel = self._sel_cache[(group, n)] = np.flatnonzero(on).astype(np.int64)
-        return sel
-
     def _score_maps(self) -> np.ndarray:
         """This frame's per-part score maps (computed at the first scoring of the frame)."""
         if self._maps is None:
@@ -428,25 +458,8 @@ class ColourCue:
             return _colour_sums_serial(*args, maps, self.ts)
         return colour_sums_kernel(*args, maps, self.ts, 4 * nb.get_num_threads())
 
-    def _norm(self) -> float:
+    def _norm(self, body: BodyModel) -> float:
         return float(self._n_scored * self.ts.size)
-
-    def scores(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
-        """Colour scores ``(N,)`` in [0, 1] of poses given their model points ``(N, P, 3)``."""
-        return self._sums(body, pts, None).mean(axis=1) / self._norm()
-
-    def scores_factored(
-        self, body: BodyModel, pts_base: np.ndarray, pts_left: np.ndarray, pts_right: np.ndarray
-    ) -> np.ndarray:
-        """Scores ``(M, A, B)`` of every leg combination (see
-        ``SilhouetteLikelihood.weights_factored``) from the points of the base poses ``(M, P,
-        3)`` and of the leg variants ``(M * A, P, 3)``, ``(M * B, P, 3)``."""
-        m = pts_base.shape[0]
-        sb = self._sums(body, pts_base, 0)
-        sl = self._sums(body, pts_left, 1).reshape(m, -1, sb.shape[1])
-        sr = self._sums(body, pts_right, 2).reshape(m, -1, sb.shape[1])
-        tot = sb[:, None, None, :] + sl[:, :, None, :] + sr[:, None, :, :]
-        return tot.mean(axis=3) / self._norm()
 
     def weight_factors(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
         """``factor(scores(body, pts))`` ``(N,)``; small batches in one kernel call."""
@@ -462,7 +475,7 @@ class ColourCue:
             self.cam_hw,
             self._score_maps(),
             self.ts,
-            1.0 / (self._norm() * typ),
+            1.0 / (self._norm(body) * typ),
             float(self.config.beta),
         )
 
@@ -577,6 +590,7 @@ class ColourCue:
 
 __all__ = [
     "PART_CAPSULES",
+    "CapsuleSumsCue",
     "ColourCue",
     "colour_sums_kernel",
     "lab_image",

@@ -43,7 +43,7 @@ import numba as nb
 import numpy as np
 
 from tracker import raster
-from tracker.appearance import SERIAL_BELOW, lab_image
+from tracker.appearance import SERIAL_BELOW, CapsuleSumsCue, lab_image
 from tracker.body import CAPSULE_NAMES, HEM_CAPSULE_NAMES, BodyModel
 from tracker.camera import Camera
 
@@ -271,7 +271,7 @@ def edge_sums_kernel(
     return out
 
 
-class EdgeCue:
+class EdgeCue(CapsuleSumsCue):
     """The edge score of poses: their limbs' projected outlines against the frame's edges.
 
     Parameters
@@ -285,7 +285,7 @@ class EdgeCue:
         self.config = config
         self.cameras = list(cameras)
         self.cams, self.cam_hw = raster.pack_cameras(self.cameras)
-        self.cap_on = capsules_of(config.parts)
+        self._on = capsules_of(config.parts)
         m = config.axis_margin
         self.ts = np.linspace(m, 1.0 - m, config.samples)
         hmax, wmax = int(self.cam_hw[:, 0].max()), int(self.cam_hw[:, 1].max())
@@ -368,16 +368,6 @@ class EdgeCue:
         """True when a frame is set and an estimate gave the typical score."""
         return self.has_frame and self.typical is not None
 
-    def _sel(self, body: BodyModel, group: int | None) -> np.ndarray:
-        n = len(body.capsule_groups)
-        sel = self._sel_cache.get((group, n))
-        if sel is None:
-            on = self.cap_on[:n]
-            if group is not None:
-                on = on & (body.capsule_groups == group)
-            sel = self._sel_cache[(group, n)] = np.flatnonzero(on).astype(np.int64)
-        return sel
-
     def _sums(self, body: BodyModel, pts: np.ndarray, group: int | None) -> np.ndarray:
         args = (pts, self._sel(body, group), body.cap_ab, body.radii, self.cams, self.cam_hw)
         if pts.shape[0] < SERIAL_BELOW or nb.get_num_threads() == 1:
@@ -386,23 +376,6 @@ class EdgeCue:
 
     def _norm(self, body: BodyModel) -> float:
         return float(2 * self._sel(body, None).size * self.ts.size)
-
-    def scores(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
-        """Edge scores ``(N,)`` in [0, 1] of poses given their model points ``(N, P, 3)``."""
-        return self._sums(body, pts, None).mean(axis=1) / self._norm(body)
-
-    def scores_factored(
-        self, body: BodyModel, pts_base: np.ndarray, pts_left: np.ndarray, pts_right: np.ndarray
-    ) -> np.ndarray:
-        """Scores ``(M, A, B)`` of every leg combination (see
-        ``SilhouetteLikelihood.weights_factored``) from the points of the base poses ``(M, P,
-        3)`` and of the leg variants ``(M * A, P, 3)``, ``(M * B, P, 3)``."""
-        m = pts_base.shape[0]
-        sb = self._sums(body, pts_base, 0)
-        sl = self._sums(body, pts_left, 1).reshape(m, -1, sb.shape[1])
-        sr = self._sums(body, pts_right, 2).reshape(m, -1, sb.shape[1])
-        tot = sb[:, None, None, :] + sl[:, :, None, :] + sr[:, None, :, :]
-        return tot.mean(axis=3) / self._norm(body)
 
     def weight_factors(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
         """``factor(scores(body, pts))`` ``(N,)``."""
