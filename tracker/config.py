@@ -1149,6 +1149,38 @@ def _image_size(v: tuple[int, int]) -> tuple[int, int]:
     return v
 
 
+class KeypointConfig(_Model):
+    """The 2D key-point cue (:mod:`tracker.keypoints2d`): the model's leg key points projected
+    into each camera and scored against key points a 2D pose detector found in that frame
+    (given to ``Tracker.process(..., keypoints=...)``); the weight is multiplied by ``(score /
+    typical) ** beta``. Off by default (docs/tracker.md, "2D key-point cue")."""
+
+    enabled: Annotated[
+        bool, Field(description="Multiply the weight by the detected 2D key points' agreement")
+    ] = False
+    beta: Annotated[
+        float, Field(gt=0, le=20, description="Exponent of the key-point factor (its strength)")
+    ] = 1.0
+    sigma_fraction: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=1,
+            description="Spread of a detected point, as a fraction of the detected person's "
+            "height in the image",
+        ),
+    ] = 0.08
+    min_sigma_px: Annotated[
+        float, Field(gt=0, le=100, description="Least spread in pixels (a small, far person)")
+    ] = 2.0
+    min_confidence: Annotated[
+        float, Field(ge=0, le=1, description="Detected points less confident than this are unused")
+    ] = 0.5
+    rate: Annotated[
+        float, Field(gt=0, le=1, description="Update rate of the typical score of estimates")
+    ] = 0.2
+
+
 class EdgeConfig(_Model):
     """The edge cue (:mod:`tracker.edges`): the limbs' projected outlines scored against the
     frame's edges; the weight is multiplied by ``(score / typical) ** beta``. Off by default
@@ -1426,6 +1458,7 @@ class TrackerConfig(_Model):
     arms: ArmSearchConfig = Field(default_factory=ArmSearchConfig)
     appearance: AppearanceConfig = Field(default_factory=AppearanceConfig)
     edges: EdgeConfig = Field(default_factory=EdgeConfig)
+    keypoints: KeypointConfig = Field(default_factory=KeypointConfig)
     collision: CollisionConfig = Field(default_factory=CollisionConfig)
     occlusion: OcclusionConfig = Field(default_factory=OcclusionConfig)
     limits_profile: Annotated[str, Field(description="tracker.dof limit profile")] = "walking"

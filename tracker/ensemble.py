@@ -199,9 +199,17 @@ class EnsembleTracker:
         for t in self.tracks:
             t.set_occluders(occluders)
 
-    def process(self, frame_index: int, time_s: float, frames: Sequence[np.ndarray]) -> FrameResult:
+    def process(
+        self,
+        frame_index: int,
+        time_s: float,
+        frames: Sequence[np.ndarray],
+        keypoints: Sequence[np.ndarray | None] | None = None,
+    ) -> FrameResult:
         """Track one time step from the raw frames of every camera."""
-        return self.process_segmentations(frame_index, time_s, self.segment(frames), frames)
+        return self.process_segmentations(
+            frame_index, time_s, self.segment(frames), frames, keypoints
+        )
 
     def process_segmentations(
         self,
@@ -209,9 +217,13 @@ class EnsembleTracker:
         time_s: float,
         segs: Sequence[Segmentation],
         frames: Sequence[np.ndarray] | None = None,
+        keypoints: Sequence[np.ndarray | None] | None = None,
     ) -> FrameResult:
         """As :meth:`tracker.pipeline.Tracker.process_segmentations`, every track in turn."""
-        results = [t.process_segmentations(frame_index, time_s, segs, frames) for t in self.tracks]
+        results = [
+            t.process_segmentations(frame_index, time_s, segs, frames, keypoints)
+            for t in self.tracks
+        ]
         revised: set[int] = set()
         for i, r in enumerate(results):
             for rev in r.revisions:

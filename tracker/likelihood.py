@@ -146,6 +146,9 @@ class SilhouetteLikelihood:
         self.appearance = None
         #: Optional edge cue (tracker.edges.EdgeCue): multiplies the weights when active.
         self.edges = None
+        #: Optional 2D key-point cue (tracker.keypoints2d.KeypointCue): multiplies the weights
+        #: when active.
+        self.keypoints = None
         #: Optional non-penetration prior (tracker.collision.CollisionPrior): multiplies the
         #: weights.
         self.collision = None
@@ -246,14 +249,24 @@ class SilhouetteLikelihood:
             4 * nb.get_num_threads(),
         )
 
+    def _image_cues(self) -> list:
+        """The cues multiplying the weights now, in this order: the colour cue, the edge cue
+        when it scores every weight, the 2D key-point cue (each only while active)."""
+        cues = []
+        if self.appearance is not None and self.appearance.active:
+            cues.append(self.appearance)
+        if self.edges is not None and self.edges.active and self.edges.everywhere:
+            cues.append(self.edges)
+        if self.keypoints is not None and self.keypoints.active:
+            cues.append(self.keypoints)
+        return cues
+
     def weights(self, poses: np.ndarray) -> np.ndarray:
         """Weights of poses ``(N, 31)`` -> ``(N,)`` float64, mean over cameras."""
         pts = self.body.points(self._poses(poses))
         w = weight_from_counts(self._counts(pts), self.measure)
-        if self.appearance is not None and self.appearance.active:  # colour cue
-            w = w * self.appearance.weight_factors(self.body, pts)
-        if self.edges is not None and self.edges.active and self.edges.everywhere:  # edge cue
-            w = w * self.edges.weight_factors(self.body, pts)
+        for cue in self._image_cues():
+            w = w * cue.weight_factors(self.body, pts)
         if self.collision is not None:
             w = w * self.collision.factors(self.body, pts)
         return w
@@ -341,10 +354,8 @@ class SilhouetteLikelihood:
         """
         pts = self._factored_points(base, left_leg, right_leg)
         w = weight_from_counts(self._counts_factored(*pts), self.measure)
-        if self.appearance is not None and self.appearance.active:  # colour cue
-            w = w * self.appearance.factor(self.appearance.scores_factored(self.body, *pts[:3]))
-        if self.edges is not None and self.edges.active and self.edges.everywhere:  # edge cue
-            w = w * self.edges.factor(self.edges.scores_factored(self.body, *pts[:3]))
+        for cue in self._image_cues():
+            w = w * cue.factor(cue.scores_factored(self.body, *pts[:3]))
         if self.collision is not None:  # the pairs lie in the base (upper body and pelvis)
             w = w * self.collision.factors(self.body, pts[0])[:, None, None]
         return w
@@ -369,10 +380,8 @@ class SilhouetteLikelihood:
         groups[np.asarray(capsules, dtype=np.int64)] = 1  # group 2 (the "right" part): empty
         counts = self._counts_factored(pts_base, pts, pts_base, p.shape[0], 1, groups)[0, :, 0]
         w = weight_from_counts(counts, self.measure)
-        if self.appearance is not None and self.appearance.active:  # colour cue
-            w = w * self.appearance.weight_factors(b, pts)
-        if self.edges is not None and self.edges.active and self.edges.everywhere:  # edge cue
-            w = w * self.edges.weight_factors(b, pts)
+        for cue in self._image_cues():
+            w = w * cue.weight_factors(b, pts)
         if self.collision is not None:
             w = w * self.collision.factors(b, pts)
         return w

@@ -140,6 +140,7 @@ class _Observation:
     masks: list[np.ndarray]
     colour: tuple[np.ndarray, np.ndarray] | None = None
     edges: list | None = None  # the edge cue's frame_state
+    keypoints: tuple | None = None  # the 2D key-point cue's frame_state
 
 
 def _numba_threads(n: int):
@@ -395,6 +396,13 @@ class Tracker:
 
             self.edge_cue = EdgeCue([cam.scaled(*c.edges.size) for cam in self.cameras], c.edges)
             likelihood.edges = self.edge_cue
+        #: The 2D key-point cue (config.keypoints), attached to the likelihood; None when off.
+        self.keypoint_cue = None
+        if c.keypoints.enabled and hasattr(likelihood, "keypoints"):
+            from tracker.keypoints2d import KeypointCue
+
+            self.keypoint_cue = KeypointCue(self.cameras, c.keypoints)
+            likelihood.keypoints = self.keypoint_cue
         if c.collision.enabled and hasattr(likelihood, "collision"):
             from tracker.collision import CollisionPrior
 
@@ -526,9 +534,18 @@ class Tracker:
             raise ValueError(f"{len(frames)} frames for {len(self.segmenters)} cameras")
         return [s.apply(f) for s, f in zip(self.segmenters, frames, strict=True)]
 
-    def process(self, frame_index: int, time_s: float, frames: Sequence[np.ndarray]) -> FrameResult:
-        """Track one time step from the raw frames of every camera."""
-        return self.process_segmentations(frame_index, time_s, self.segment(frames), frames)
+    def process(
+        self,
+        frame_index: int,
+        time_s: float,
+        frames: Sequence[np.ndarray],
+        keypoints: Sequence[np.ndarray | None] | None = None,
+    ) -> FrameResult:
+        """Track one time step from the raw frames of every camera (``keypoints``: see
+        :meth:`process_segmentations`)."""
+        return self.process_segmentations(
+            frame_index, time_s, self.segment(frames), frames, keypoints
+        )
 
     def process_segmentations(
         self,
@@ -536,15 +553,19 @@ class Tracker:
         time_s: float,
         segs: Sequence[Segmentation],
         frames: Sequence[np.ndarray] | None = None,
+        keypoints: Sequence[np.ndarray | None] | None = None,
     ) -> FrameResult:
         """Track one time step from already segmented frames (one per camera).
 
         ``frames`` (the raw BGR frames) feed the colour cue (``config.appearance``); without
-        them it does not score this time step.
+        them it does not score this time step. ``keypoints`` (per camera ``(19, 3)`` detected
+        ``u, v, confidence`` in the camera's image pixels, or None) feed the 2D key-point cue
+        (``config.keypoints``, :mod:`tracker.keypoints2d`); without them it does not score
+        this time step.
         """
         with _single_thread():  # small batches; the large ones ask for every thread
             self._last_obs = None
-            res = self._process(frame_index, time_s, segs, frames)
+            res = self._process(frame_index, time_s, segs, frames, keypoints)
             if self._revising:
                 res.revisions = self._revise(res)
             return res
@@ -622,6 +643,7 @@ class Tracker:
         time_s: float,
         segs: Sequence[Segmentation],
         frames: Sequence[np.ndarray] | None = None,
+        keypoints: Sequence[np.ndarray | None] | None = None,
     ) -> FrameResult:
         self._lik.count = 0
         notes: list[str] = []
@@ -642,6 +664,8 @@ class Tracker:
                 self.edge_cue.clear_frame()
             else:
                 self.edge_cue.set_frame(frames, [s.mask_full for s in segs])
+        if self.keypoint_cue is not None:  # 2D key-point cue: this frame's detections
+            self.keypoint_cue.set_frame(keypoints)
         if any(o is not None for o in self.occlusion):
             self._learn_occluders(masks, notes)
         obs = _Observation(int(frame_index), float(time_s), masks)
@@ -713,6 +737,8 @@ class Tracker:
             self._learn_colour(pose)
         if self.edge_cue is not None:  # edge cue: the estimates' typical score
             self.edge_cue.update(self.body, pose)
+        if self.keypoint_cue is not None:  # 2D key-point cue: the estimates' typical score
+            self.keypoint_cue.update(self.body, pose)
         self._remember(pose, time_s, dt, continuous=status == "tracked")
         self._prev_joints = joints
         pose, joints = self._output_arms(pose, joints)
@@ -752,6 +778,8 @@ class Tracker:
             obs.colour = self.colour.frame_state()
         if self.edge_cue is not None:
             obs.edges = self.edge_cue.frame_state()
+        if self.keypoint_cue is not None:
+            obs.keypoints = self.keypoint_cue.frame_state()
         self._window.append((obs, res))
         fps = 1.0 / self.dt_default
         max_frames = max(2, int(round(rc.max_s * fps)))
@@ -822,6 +850,8 @@ class Tracker:
                 b.colour.restore_frame(obs.colour)
             if b.edge_cue is not None:
                 b.edge_cue.restore_frame(obs.edges)
+            if b.keypoint_cue is not None:
+                b.keypoint_cue.restore_frame(obs.keypoints)
             mirrored = _Observation(obs.frame_index, 2.0 * t0 - obs.time_s, obs.masks)
             r = b._estimate(mirrored, [])
             if not r.has_pose:

@@ -1,0 +1,204 @@
+"""The 2D key-point cue (tracker.keypoints2d): scores, side assignment, factoring, plumbing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from tests.test_appearance import _paint, _pose
+from tracker.body import BodyModel
+from tracker.camera import Camera
+from tracker.config import KeypointConfig, TrackerConfig
+from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, JointLimits
+from tracker.keypoints2d import LEFT_POINTS, RIGHT_POINTS, KeypointCue
+from tracker.likelihood import SilhouetteLikelihood, weight_from_counts
+
+SIZE = (320, 240)
+
+
+@pytest.fixture(scope="module")
+def body() -> BodyModel:
+    return BodyModel(1.72)
+
+
+@pytest.fixture(scope="module")
+def cameras() -> list[Camera]:
+    return [
+        Camera.look_at(name="front", position=[4.0, 1.0, 1.6], target=[0, 0, 0.9]).scaled(*SIZE),
+        Camera.look_at(name="side", position=[0.5, -4.0, 1.8], target=[0, 0, 0.9]).scaled(*SIZE),
+    ]
+
+
+def _detections(body, pose, cameras, swap=None, conf=1.0) -> list[np.ndarray]:
+    """A perfect detector: the pose's key points projected, optionally with the legs' labels
+    exchanged per camera."""
+    kp = np.asarray(body.forward(pose[None]))[0]
+    out = []
+    for cam, sw in zip(cameras, swap or [False] * len(cameras), strict=True):
+        d = np.concatenate([cam.project(kp), np.full((len(kp), 1), conf)], axis=1)
+        if sw:
+            d[list(LEFT_POINTS) + list(RIGHT_POINTS)] = d[list(RIGHT_POINTS) + list(LEFT_POINTS)]
+        out.append(d)
+    return out
+
+
+def _cue(cameras, dets, typical=None, **kw) -> KeypointCue:
+    cue = KeypointCue(cameras, KeypointConfig(enabled=True, **kw))
+    cue.set_frame(dets)
+    cue.typical = typical
+    return cue
+
+
+@pytest.mark.parametrize(
+    ("dof", "delta"),
+    [("l_knee_flexion", 0.3), ("r_hip_flexion", -0.3), ("r_ankle_flexion", 0.4), ("root_x", 0.1)],
+)
+def test_score_is_highest_at_the_detected_pose(body, cameras, dof, delta) -> None:
+    pose = _pose(body)
+    cue = _cue(cameras, _detections(body, pose, cameras))
+    poses = np.stack([pose, pose])
+    poses[1, DOF[dof]] += delta
+    s = cue.scores(body, body.points(poses))
+    assert s[0] == pytest.approx(1.0)
+    assert 0.0 < s[1] < 0.99, (dof, s)
+
+
+def test_the_detectors_side_labels_do_not_matter_but_both_legs_count(body, cameras) -> None:
+    pose = _pose(body)
+    right = body.points(pose[None])
+    base = _cue(cameras, _detections(body, pose, cameras)).scores(body, right)
+    for swap in ((True, False), (False, True), (True, True)):
+        sw = _cue(cameras, _detections(body, pose, cameras, swap=swap)).scores(body, right)
+        assert sw == pytest.approx(base)
+    # both model legs on the detected left leg: one leg is always far from its detection
+    both = pose.copy()
+    both[list(RIGHT_LEG)] = pose[list(LEFT_LEG)]
+    cue = _cue(cameras, _detections(body, pose, cameras))
+    assert cue.scores(body, body.points(both[None]))[0] < 0.8 * base[0]
+
+
+def test_missing_and_unconfident_points_are_left_out(body, cameras) -> None:
+    pose = _pose(body)
+    moved = pose.copy()
+    moved[DOF["l_knee_flexion"]] += 0.4  # moves the left ankle, heel and toe, and the knee
+    dets = _detections(body, pose, cameras)
+    full = _cue(cameras, dets).scores(body, body.points(np.stack([pose, moved])))
+    for d in dets:  # the left shank and foot not found by the detector
+        d[[13, 15, 17], :2] = np.nan
+    fewer = _cue(cameras, dets).scores(body, body.points(np.stack([pose, moved])))
+    assert fewer[0] == pytest.approx(1.0) and fewer[1] > full[1]
+    # a camera whose points are all below min_confidence is not used; none at all: no frame
+    low = _detections(body, pose, cameras, conf=0.2)
+    cue = _cue(cameras, [low[0], _detections(body, pose, cameras)[1]])
+    one = _cue(cameras[1:], _detections(body, pose, cameras[1:]))
+    np.testing.assert_allclose(
+        cue.scores(body, body.points(moved[None])), one.scores(body, body.points(moved[None]))
+    )
+    cue.set_frame(low)
+    assert not cue.has_frame
+    cue.set_frame([None, None])
+    assert not cue.has_frame
+    cue.set_frame(None)
+    assert not cue.has_frame
+
+
+def test_factored_equals_unfactored_with_the_cue(body, cameras) -> None:
+    pose = _pose(body)
+    painted = [_paint(body, pose, c) for c in cameras]
+    lik = SilhouetteLikelihood(body, cameras)
+    lik.set_silhouettes([p[1] for p in painted])
+    cue = _cue(cameras, _detections(body, pose, cameras, swap=(False, True)), typical=0.6)
+    lik.keypoints = cue
+    rng = np.random.default_rng(3)
+    lo, hi = JointLimits.profile("walking").arrays()
+    m, na, nb = 3, 4, 5
+    base = np.repeat(pose[None], m, axis=0)
+    base[:, 6:] = np.clip(base[:, 6:] + rng.normal(0, 0.2, (m, N_DOF - 6)), lo[6:], hi[6:])
+    left = rng.uniform(lo[list(LEFT_LEG)], hi[list(LEFT_LEG)], (m, na, len(LEFT_LEG)))
+    right = rng.uniform(lo[list(RIGHT_LEG)], hi[list(RIGHT_LEG)], (m, nb, len(RIGHT_LEG)))
+    wf = lik.weights_factored(base, left, right)
+    full = np.repeat(np.repeat(base[:, None, None], na, 1), nb, 2)
+    full[..., list(LEFT_LEG)] = left[:, :, None]
+    full[..., list(RIGHT_LEG)] = right[:, None, :]
+    flat = full.reshape(-1, N_DOF)
+    w = lik.weights(flat).reshape(m, na, nb)
+    np.testing.assert_allclose(wf, w, rtol=1e-12, atol=1e-15)
+    sil = weight_from_counts(lik.counts(flat), lik.measure).reshape(m, na, nb)
+    s = cue.scores(body, body.points(flat)).reshape(m, na, nb)
+    assert s.std() > 0
+    np.testing.assert_allclose(w, sil * np.maximum(s, 1e-6) / 0.6, rtol=1e-12)  # beta 1
+
+
+def test_inactive_until_an_estimate_and_without_a_frame(body, cameras) -> None:
+    pose = _pose(body)
+    painted = [_paint(body, pose, c) for c in cameras]
+    lik = SilhouetteLikelihood(body, cameras)
+    lik.set_silhouettes([p[1] for p in painted])
+    rng = np.random.default_rng(0)
+    poses = pose[None] + rng.normal(0, 0.05, (20, N_DOF))
+    plain = lik.weights(poses)
+    cue = _cue(cameras, _detections(body, pose, cameras))
+    lik.keypoints = cue
+    assert not cue.active and np.array_equal(lik.weights(poses), plain)
+    cue.update(body, poses[0])  # the first estimate sets the typical score
+    first = float(cue.scores(body, body.points(poses[:1]))[0])
+    assert cue.active and cue.typical == pytest.approx(first)
+    cue.update(body, pose)  # then follows at `rate`
+    assert cue.typical == pytest.approx(first + 0.2 * (1.0 - first))
+    w = lik.weights(poses)
+    assert not np.array_equal(w, plain)
+    state = cue.frame_state()
+    cue.clear_frame()
+    assert np.array_equal(lik.weights(poses), plain)
+    cue.update(body, pose)  # no frame: nothing learned
+    assert cue.typical == pytest.approx(first + 0.2 * (1.0 - first))
+    cue.restore_frame(state)
+    np.testing.assert_array_equal(lik.weights(poses), w)
+    assert not TrackerConfig().keypoints.enabled  # off by default
+
+
+def test_bad_detections_and_config_are_rejected(body, cameras) -> None:
+    cue = KeypointCue(cameras, KeypointConfig(enabled=True))
+    dets = _detections(body, _pose(body), cameras)
+    with pytest.raises(ValueError, match="for 2 cameras"):
+        cue.set_frame(dets[:1])
+    with pytest.raises(ValueError, match="shape"):
+        cue.set_frame([dets[0][:, :2], dets[1]])
+    with pytest.raises(ValidationError):
+        KeypointConfig(beta=0)
+    with pytest.raises(ValidationError):
+        TrackerConfig.model_validate({"keypoints": {"enabled": True, "sigma": 2}})
+
+
+def test_tracker_feeds_the_cue_and_without_key_points_tracks_as_before() -> None:
+    """Through the pipeline: each frame's detections set the cue, each estimate its typical
+    score; with the cue on but no key points given the track is the cue-less one exactly."""
+    from tracker.pipeline import Tracker
+    from tracker.synthetic import render_clip, side_cameras, textured_background, walking_motion
+
+    rng = np.random.default_rng(5)
+    body = BodyModel(1.70)
+    cams = side_cameras(1, image_size=(160, 120), centre=(1.0, 0.0), fps=20.0)
+    poses = walking_motion(body, 4, fps=20.0, speed_m_s=1.0, start_xy=(0.2, 0.0))
+    bgs = [textured_background(160, 120, rng) for _ in cams]
+    frames = list(render_clip(SilhouetteLikelihood(body, cams), poses, bgs, rng))
+
+    def run(cfg, with_points):
+        tr = Tracker(cams, cfg, rng=np.random.default_rng(0), height_m=1.70, backgrounds=bgs)
+        out = []
+        for k, images in enumerate(frames):
+            kp = _detections(body, poses[k], cams) if with_points else None
+            out.append(tr.process(k, k / 20.0, images, keypoints=kp))
+        return tr, out
+
+    off_tr, off = run(TrackerConfig(), False)
+    cfg = TrackerConfig.model_validate({"keypoints": {"enabled": True}})
+    tr, without = run(cfg, False)
+    assert tr.likelihood.keypoints is tr.keypoint_cue and off_tr.keypoint_cue is None
+    for a, b in zip(off, without, strict=True):
+        np.testing.assert_array_equal(a.pose, b.pose)
+    tr, with_points = run(cfg, True)
+    assert tr.keypoint_cue.active and 0.0 < tr.keypoint_cue.typical <= 1.0
+    assert all(r.has_pose for r in with_points)
+    assert any(not np.array_equal(a.pose, b.pose) for a, b in zip(off, with_points, strict=True))

@@ -1,0 +1,200 @@
+"""The 2D key-point cue: the model's leg key points against a 2D pose detector's (opt-in).
+
+The silhouette cannot tell which of two basins of nearly the same weight the pose lies in
+(``bench/likelihood_ceiling.py``: the truth's basin and the tracker's, both climbed, weigh the
+same on half the frames). A 2D human-pose detector run on the frame sees the knees, ankles and
+feet inside the silhouette. This module scores poses against such detections; it does not run
+a detector (that is I/O and a model file, outside ``tracker/``): the caller passes each frame's
+detected key points per camera to ``Tracker.process(..., keypoints=...)``.
+
+* **Detections** of one frame: per camera an array ``(19, 3)`` in the CONVENTIONS key-point
+  order, ``(u, v, confidence)`` in that camera's image pixels (the camera file's image size),
+  NaN where the detector has no such point; ``None`` for a camera with no detection. Points
+  less confident than ``min_confidence`` are unused.
+* **Score** of a pose: each leg key point of the model (knee, ankle, heel, toe of both legs) is
+  projected into each camera with a detection and scores ``exp(-d^2 / 2 s^2)``,
+  ``s`` = ``sigma_fraction`` x the detected person's height in the image (at least
+  ``min_sigma_px``), ``d`` to the detector's point of that kind on the side the model leg is
+  assigned to. Detectors confuse the sides of a person seen from the side or the back, so per
+  camera the better of the two assignments (the model's left leg to the detected left leg and
+  right to right, or exchanged) counts: both model legs can never settle on one detected leg.
+  The pose's score is the mean over the detected points and the cameras. Each leg's sums against
+  either detected side depend on that leg only, so the score of every leg combination follows
+  from per-leg sums (``scores_factored``) and the IPF's factored weights stay exact.
+* **Combination**: ``SilhouetteLikelihood.keypoints`` multiplies every weight by ``(score /
+  typical) ** beta``, ``typical`` the running score of the estimates (``update``), so weights
+  keep the IoU scale. The cue is inactive until the first estimate gives the typical score,
+  and in a frame without detections.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from gaitwatch.conventions import N_KEYPOINTS
+from tracker.body import BodyModel
+from tracker.camera import Camera
+
+#: The scored key points of each leg (CONVENTIONS indices): knee, ankle, heel, toe.
+LEFT_POINTS: tuple[int, ...] = (11, 13, 15, 17)
+RIGHT_POINTS: tuple[int, ...] = (12, 14, 16, 18)
+
+
+class KeypointCue:
+    """Detected 2D key points of the current frame and the key-point score of poses.
+
+    Parameters
+    ----------
+    cameras : sequence of Camera
+        The tracker's cameras at the resolution the detections are given in.
+    config : tracker.config.KeypointConfig
+    """
+
+    def __init__(self, cameras: Sequence[Camera], config) -> None:
+        self.config = config
+        self.cameras = list(cameras)
+        #: Running score of recent estimates (None until the first estimate with detections).
+        self.typical: float | None = None
+        self._det: list[np.ndarray | None] | None = None  # per camera (2, 4, 2) or None
+        self._sigma: np.ndarray | None = None  # per camera (K,)
+
+    # -- the frame -------------------------------------------------------------------------
+    def set_frame(self, detections: Sequence[np.ndarray | None] | None) -> None:
+        """This frame's detections (module docstring); None or no usable point: no frame."""
+        if detections is None:
+            self.clear_frame()
+            return
+        if len(detections) != len(self.cameras):
+            raise ValueError(
+                f"expected key points for {len(self.cameras)} cameras, got {len(detections)}"
+            )
+        det: list[np.ndarray | None] = []
+        sigma = np.zeros(len(self.cameras))
+        c = self.config
+        for i, d in enumerate(detections):
+            if d is None:
+                det.append(None)
+                continue
+            a = np.asarray(d, dtype=np.float64)
+            if a.shape != (N_KEYPOINTS, 3):
+                raise ValueError(
+                    f"key points of camera {i} must have shape ({N_KEYPOINTS}, 3), got {a.shape}"
+                )
+            ok = np.isfinite(a).all(axis=1) & (a[:, 2] >= c.min_confidence)
+            uv = np.where(ok[:, None], a[:, :2], np.nan)
+            legs = np.stack([uv[list(LEFT_POINTS)], uv[list(RIGHT_POINTS)]])  # (2, 4, 2)
+            if not np.isfinite(legs).any() or ok.sum() < 2:
+                det.append(None)
+                continue
+            height = float(np.nanmax(uv[:, 1]) - np.nanmin(uv[:, 1]))
+            sigma[i] = max(c.sigma_fraction * height, c.min_sigma_px)
+            det.append(legs)
+        if all(d is None for d in det):
+            self.clear_frame()
+            return
+        self._det, self._sigma = det, sigma
+
+    def clear_frame(self) -> None:
+        """No detections this frame: the cue does not score it."""
+        self._det = self._sigma = None
+
+    @property
+    def has_frame(self) -> bool:
+        return self._det is not None
+
+    @property
+    def active(self) -> bool:
+        """True when a frame is set and an estimate gave the typical score."""
+        return self.has_frame and self.typical is not None
+
+    def frame_state(self) -> tuple | None:
+        """This frame's detections, for :meth:`restore_frame` (the backward pass)."""
+        return None if self._det is None else (list(self._det), self._sigma.copy())
+
+    def restore_frame(self, state: tuple | None) -> None:
+        """Set the frame kept by :meth:`frame_state` (None: no frame)."""
+        if state is None:
+            self.clear_frame()
+        else:
+            self._det, self._sigma = list(state[0]), state[1].copy()
+
+    # -- scores ----------------------------------------------------------------------------
+    def _leg_sums(self, pts: np.ndarray, side: int) -> tuple[np.ndarray, np.ndarray]:
+        """Summed point scores ``(2, N, K)`` of one leg of poses (``side`` 0 left, 1 right)
+        given their model points ``(N, P, 3)``, against the detector's left (``[0]``) and
+        right (``[1]``) points, and the number of detected leg points per camera ``(K,)`` (each
+        is scored once under either assignment of the legs)."""
+        idx = list(LEFT_POINTS if side == 0 else RIGHT_POINTS)
+        n = pts.shape[0]
+        sums = np.zeros((2, n, len(self.cameras)))
+        counts = np.zeros(len(self.cameras))
+        for k, (cam, det) in enumerate(zip(self.cameras, self._det or (), strict=False)):
+            if det is None:
+                continue
+            have = np.isfinite(det).all(axis=2).any(axis=0)  # (4,) a point of either side
+            if not have.any():
+                continue
+            uv = cam.project(pts[:, idx][:, have])  # (N, h, 2)
+            for d_side in (0, 1):
+                d = np.linalg.norm(uv - det[d_side, have][None], axis=2)  # (N, h), NaN: none
+                s = np.exp(-0.5 * (d / self._sigma[k]) ** 2)
+                sums[d_side, :, k] = np.nansum(s, axis=1)
+            counts[k] = float(np.isfinite(det).all(axis=2).sum())  # detected points, both sides
+        return sums, counts
+
+    def _mean(self, left: np.ndarray, right: np.ndarray, counts: np.ndarray) -> np.ndarray:
+        """Scores from the legs' sums against each detected side (``(2, ..., K)`` each, shapes
+        broadcasting): per camera the better of the two assignments of the model's legs to the
+        detected ones, then the mean point score over the cameras with detections."""
+        same = left[0] + right[1]
+        swapped = left[1] + right[0]
+        on = counts > 0
+        best = np.maximum(same, swapped)[..., on]
+        return (best / counts[on]).mean(axis=-1)
+
+    def scores(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
+        """Scores ``(N,)`` in [0, 1] of poses given their model points ``(N, P, 3)``."""
+        sl, cnt = self._leg_sums(pts, 0)
+        sr, _ = self._leg_sums(pts, 1)
+        return self._mean(sl, sr, cnt)
+
+    def scores_factored(
+        self, body: BodyModel, pts_base: np.ndarray, pts_left: np.ndarray, pts_right: np.ndarray
+    ) -> np.ndarray:
+        """Scores ``(M, A, B)`` of every leg combination (see
+        ``SilhouetteLikelihood.weights_factored``) from the points of the base poses ``(M, P,
+        3)`` and of the leg variants ``(M * A, P, 3)``, ``(M * B, P, 3)``; equal to
+        :meth:`scores` of the combined poses (the base holds no scored point)."""
+        m = pts_base.shape[0]
+        sl, cnt = self._leg_sums(pts_left, 0)
+        sr, _ = self._leg_sums(pts_right, 1)
+        k = sl.shape[2]
+        return self._mean(sl.reshape(2, m, -1, 1, k), sr.reshape(2, m, 1, -1, k), cnt)
+
+    def factor(self, scores: np.ndarray) -> np.ndarray:
+        """The multiplier of the silhouette weight: ``(scores / typical) ** beta``."""
+        typ = self.typical if self.typical else 1.0
+        return (np.maximum(scores, 1e-6) / typ) ** self.config.beta
+
+    def weight_factors(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
+        """``factor(scores(body, pts))`` ``(N,)``."""
+        return self.factor(self.scores(body, pts))
+
+    def update(self, body: BodyModel, pose: np.ndarray) -> None:
+        """Follow the estimates' score (the typical score of the factor); no frame: nothing."""
+        if not self.has_frame:
+            return
+        s = float(self.scores(body, body.points(np.asarray(pose, dtype=np.float64)[None]))[0])
+        if s <= 0:
+            return
+        r = self.config.rate
+        self.typical = s if self.typical is None else self.typical + r * (s - self.typical)
+
+    def reset(self) -> None:
+        """Forget the typical score (another person)."""
+        self.typical = None
+
+
+__all__ = ["LEFT_POINTS", "RIGHT_POINTS", "KeypointCue"]
