@@ -490,6 +490,42 @@ def iou(a: np.ndarray, b: np.ndarray) -> float:
 
 
 # -- tracking ---------------------------------------------------------------------------------
+def fit_pose(
+    body, target: np.ndarray, x0: np.ndarray, limits: tuple[np.ndarray, np.ndarray]
+) -> np.ndarray:
+    """The pose (31,) of ``body`` (a ``tracker.body.BodyModel``) whose key points are nearest
+    ``target`` (19, 3) in least squares, from ``x0``, within ``limits`` (low, high; the root's
+    position and heading are left free)."""
+    from scipy.optimize import least_squares
+
+    lo, hi = (np.array(a, dtype=np.float64) for a in limits)
+    lo[:4], hi[:4] = -np.inf, np.inf  # position and heading free
+    eye = np.eye(lo.size) * 1e-6
+
+    def fun(x: np.ndarray) -> np.ndarray:
+        return (body.forward(x[None])[0] - target).ravel()
+
+    def jac(x: np.ndarray) -> np.ndarray:
+        pts = body.forward(np.concatenate([x[None], x[None] + eye])).reshape(lo.size + 1, -1)
+        return ((pts[1:] - pts[:1]) / 1e-6).T
+
+    x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
+    return least_squares(fun, x0, jac=jac, bounds=(lo, hi), x_scale="jac", max_nfev=100).x
+
+
+def start_pose(body, truth: Trajectory, k: int) -> np.ndarray:
+    """A first guess for :func:`fit_pose` at frame index ``k``: the neutral pose on the true
+    sacrum, facing the truth's walking direction."""
+    from gait.geometry import body_forward
+
+    target = truth.positions[k]
+    fwd = body_forward(target[None])[0]
+    yaw = math.atan2(fwd[1], fwd[0]) if np.isfinite(fwd).all() else 0.0
+    x = body.neutral_pose(float(target[SACRUM, 0]), float(target[SACRUM, 1]), yaw)
+    x[2] = target[SACRUM, 2]
+    return x
+
+
 def fit_model_to_truth(stature: float, truth: Trajectory, step: int) -> dict[int, np.ndarray]:
     """The tracker's body model fitted to the true key points (least squares over the 31 DOF
     within the joint limits) on every ``step``-th frame: the best pose the model can take.
@@ -498,40 +534,18 @@ def fit_model_to_truth(stature: float, truth: Trajectory, step: int) -> dict[int
     its likelihood weight, compared with the estimate's, tells a search failure (the truth
     weighs more) from a likelihood ambiguity (the wrong pose weighs more).
     """
-    from scipy.optimize import least_squares
-
-    from gait.geometry import body_forward
     from tracker.body import BodyModel
     from tracker.config import TrackerConfig
 
     body = BodyModel(height_m=stature)
-    lo, hi = TrackerConfig().joint_limits().arrays()
-    lo[:4], hi[:4] = -np.inf, np.inf  # position and heading free
-    eye = np.eye(lo.size) * 1e-6
-
-    def fun(x: np.ndarray, target: np.ndarray) -> np.ndarray:
-        return (body.forward(x[None])[0] - target).ravel()
-
-    def jac(x: np.ndarray, target: np.ndarray) -> np.ndarray:
-        pts = body.forward(np.concatenate([x[None], x[None] + eye])).reshape(lo.size + 1, -1)
-        return ((pts[1:] - pts[:1]) / 1e-6).T
-
-    fwd = body_forward(truth.positions)
+    limits = TrackerConfig().joint_limits().arrays()
     out: dict[int, np.ndarray] = {}
     x = None
     for k in range(0, len(truth), step):
         target = truth.positions[k]
         if not np.isfinite(target).all():
             continue
-        if x is None:
-            yaw = math.atan2(fwd[k, 1], fwd[k, 0]) if np.isfinite(fwd[k]).all() else 0.0
-            x = body.neutral_pose(float(target[SACRUM, 0]), float(target[SACRUM, 1]), yaw)
-            x[2] = target[SACRUM, 2]
-        x0 = np.clip(x, lo + 1e-9, hi - 1e-9)
-        res = least_squares(
-            fun, x0, jac=jac, bounds=(lo, hi), x_scale="jac", max_nfev=100, args=(target,)
-        )
-        x = res.x
+        x = fit_pose(body, target, start_pose(body, truth, k) if x is None else x, limits)
         out[int(truth.frames[k])] = x.copy()
     return out
 
@@ -657,7 +671,14 @@ def track(
     fits=None,
     settings: dict | None = None,
     occluders=None,
+    probe=None,
+    keypoints=None,
 ):
+    """Track ``frames`` as ``gaitwatch track`` would and score nothing: (the written key
+    points as a Trajectory, an info dict). ``probe(tracker, k, result)``, when given, is called
+    after each frame is processed (the likelihood then holds frame k's silhouettes).
+    ``keypoints``: per frame, the detected 2D key points per camera for the key-point cue
+    (``Tracker.process``'s ``keypoints``), or None."""
     from tracker.ensemble import make_tracker
 
     cfg = variant_config(filt, settings)
@@ -688,9 +709,11 @@ def track(
     tr.segment = spy
     for k, imgs in enumerate(frames):
         t0 = time.perf_counter()
-        res = tr.process(k, k / fps, imgs)
+        res = tr.process(k, k / fps, imgs, None if keypoints is None else keypoints[k])
         times_ms.append(1000 * (time.perf_counter() - t0))
         statuses.append(res.status)
+        if probe is not None:
+            probe(tr, k, res)
         if res.status == "tracked":
             ev_tr.append(res.evaluations)
         elif res.status in ("initialised", "reinitialised"):
