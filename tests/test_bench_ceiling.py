@@ -112,7 +112,7 @@ def test_detector_error_of_exact_and_exchanged_detections(keypoint_bench):
     assert err == 0.0 and share == 1.0
     shifted = exact.copy()
     shifted[:, :, 0] += 10.0  # 10 px right
-    height = (cam.project(pos)[:, :, 1].max(axis=1) - cam.project(pos)[:, :, 1].min(axis=1))
+    height = cam.project(pos)[:, :, 1].max(axis=1) - cam.project(pos)[:, :, 1].min(axis=1)
     err, _ = keypoint_bench.detector_error([shifted], truth, [cam])
     assert err == pytest.approx(np.median(10.0 / height))
 
