@@ -1,9 +1,11 @@
-"""bench/likelihood_ceiling.py: the body fitted to key points, the window shares, and one run."""
+"""bench/likelihood_ceiling.py and bench/keypoint_cue.py: the body fitted to key points, the
+window shares, the detector's error, and short runs of both."""
 
 from __future__ import annotations
 
 import importlib.util
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -20,14 +22,21 @@ def _load(name: str, file: str):
     return module
 
 
-@pytest.fixture(scope="module")
-def ceiling():
+@contextmanager
+def _bench(name: str, file: str):
+    """A bench script imported as ``name`` (bench/ on the path while it is used)."""
     sys.path.insert(0, str(REPO / "bench"))
     try:
-        yield _load("bench_likelihood_ceiling", "likelihood_ceiling.py")
+        yield _load(name, file)
     finally:
         sys.path.remove(str(REPO / "bench"))
-        sys.modules.pop("bench_likelihood_ceiling", None)
+        sys.modules.pop(name, None)
+
+
+@pytest.fixture(scope="module")
+def ceiling():
+    with _bench("bench_likelihood_ceiling", "likelihood_ceiling.py") as module:
+        yield module
 
 
 def test_window_share_counts_windows_summing_above_zero(ceiling):
@@ -87,12 +96,8 @@ def test_bad_arguments_are_refused(ceiling, tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def keypoint_bench():
-    sys.path.insert(0, str(REPO / "bench"))
-    try:
-        yield _load("bench_keypoint_cue", "keypoint_cue.py")
-    finally:
-        sys.path.remove(str(REPO / "bench"))
-        sys.modules.pop("bench_keypoint_cue", None)
+    with _bench("bench_keypoint_cue", "keypoint_cue.py") as module:
+        yield module
 
 
 def test_detector_error_of_exact_and_exchanged_detections(keypoint_bench):
