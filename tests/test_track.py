@@ -1118,3 +1118,42 @@ def test_redetect_skipped_while_stable_still_catches_a_slide(clip: dict) -> None
     res = tracker.process(12, 12 / FPS, clip["frames"][12])
     assert len(searched) == n + 1
     assert np.linalg.norm(res.joints[2, :2] - clip["truth"][12, 2, :2]) < 0.1
+
+
+def test_keypoints_on_the_command_line(clip: dict, tmp_path: Path, capsys) -> None:
+    """``--keypoints`` per camera ('none' for one without): a perfect detector's file for
+    camera 0 turns the 2D key-point cue on and changes the track; it is recorded in the log's
+    settings; wrong counts and bad files are refused before anything is written."""
+    from service.keypoints import COLUMNS
+
+    cam = clip["cams"][0]
+    lines = [",".join(COLUMNS)]
+    for k, kp in enumerate(clip["truth"]):
+        uv = cam.project(kp)
+        cells = [f"{x:.3f}" for row in np.column_stack([uv, np.ones(len(uv))]) for x in row]
+        lines.append(",".join([str(k), *cells]))
+    good = tmp_path / "cam0-keypoints.csv"
+    good.write_text("\n".join(lines) + "\n")
+    base = ["--seed", "5", "--max-frames", "4", "--particles", "729"]
+    plain, cued = tmp_path / "plain.mcap", tmp_path / "cued.mcap"
+    assert main(_args(clip, plain, *base)) == 0
+    rc = main(_args(clip, cued, *base, "--keypoints", str(good), "--keypoints", "none"))
+    assert rc == 0, capsys.readouterr().err
+    a, b = read_poselog(plain), read_poselog(cued)
+    assert len(b) == 4 and b.metadata["settings"]["keypoints"] == [str(good), "none"]
+    assert b.metadata["settings"]["tracker"]["keypoints"]["enabled"] is True
+    assert not a.metadata["settings"]["tracker"]["keypoints"]["enabled"]
+    assert not np.array_equal(a.dofs, b.dofs)
+    # one per camera, and not all of them 'none'
+    rc = main(_args(clip, tmp_path / "x.mcap", *base, "--keypoints", str(good)))
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and "--keypoints" in err and "one per camera" in err and "\n" not in err
+    rc = main(_args(clip, tmp_path / "y.mcap", *base, "--keypoints", "none", "--keypoints", "none"))
+    assert rc == 2 and "every camera is 'none'" in capsys.readouterr().err
+    # a bad file names itself and its line; nothing is written
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join([lines[0], "0,1,2"]) + "\n")
+    rc = main(_args(clip, tmp_path / "z.mcap", "--keypoints", str(bad), "--keypoints", "none"))
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and "bad.csv: line 2" in err and "\n" not in err
+    assert not (tmp_path / "z.mcap").exists()

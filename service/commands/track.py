@@ -8,7 +8,7 @@
                     [--occluder MASK|none ...] [--config TRACKER.toml|yaml]
                     [--particles N] [--tracks N] [--max-frames N]
                     [--segmentation static|mog2|knn] [--threads N] [--allow-length-mismatch]
-                    [--no-smoothing] [--no-revise]
+                    [--no-smoothing] [--no-revise] [--keypoints FILE|none ...]
 
 One VIDEO (a file OpenCV reads, or a folder of numbered PNG/JPEG frames) per ``--camera``, in the
 same order. Frames are processed one at a time (memory does not grow with the footage) and each is
@@ -39,6 +39,12 @@ for a camera without. The tracker then neither rewards nor penalises the model t
 it, legs hidden behind a table pull the estimate out of shape and off in depth. ``gaitwatch
 simulate`` writes such masks for its furniture (docs/tracker.md, "Furniture in front of the
 walk"; without them the tracker learns what it can).
+
+``--keypoints`` gives, per camera, a file of a 2D pose detector's key points for each frame
+(CSV or NumPy, :mod:`service.keypoints`; ``none`` for a camera without) and turns the 2D
+key-point cue on (``[keypoints]`` of ``--config`` for its settings; docs/tracker.md, "2D
+key-point cue"): the model's legs are then also scored against the detected knees, ankles and
+feet. gaitwatch ships no detector; ``bench/keypoints_mediapipe.py`` is one way to make the files.
 """
 
 from __future__ import annotations
@@ -91,6 +97,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="MASK",
         help="per camera (repeat): image whose non-zero pixels are furniture in front of the "
         "walking area, or 'none'",
+    )
+    p.add_argument(
+        "--keypoints",
+        action="append",
+        metavar="FILE",
+        help="per camera (repeat): a 2D pose detector's key points per frame (.csv or .npy), "
+        "or 'none'; turns the 2D key-point cue on",
     )
     p.add_argument("--filter", choices=FILTER_NAMES, help="body-part filter (default ipf)")
     p.add_argument("--seed", type=int, default=0, help="random seed (0)")
@@ -165,6 +178,27 @@ def _per_camera_images(
     return images
 
 
+def _per_camera_keypoints(paths: list[str] | None, cameras: list) -> list | None:
+    """One key-point file per camera from ``--keypoints`` (None when not given; ``none`` for a
+    camera without)."""
+    from service.keypoints import read_keypoints
+
+    if not paths:
+        return None
+    if len(paths) != len(cameras):
+        raise TrackArgumentError(
+            f"{len(paths)} --keypoints file(s) for {len(cameras)} camera(s): give one per "
+            "camera ('none' for a camera without)"
+        )
+    files = [None if p.lower() == "none" else read_keypoints(p) for p in paths]
+    if all(f is None for f in files):
+        raise TrackArgumentError("--keypoints: every camera is 'none'")
+    for f in files:
+        if f is not None and not len(f):
+            log.warning("%s holds no detection: the key-point cue will not score", f.path)
+    return files
+
+
 def build_config(args: argparse.Namespace) -> TrackerConfig:
     """The tracker configuration from ``--config`` and the command-line overrides."""
     config = load_tracker_config(args.config) if args.config else TrackerConfig()
@@ -184,6 +218,8 @@ def build_config(args: argparse.Namespace) -> TrackerConfig:
         kept = max(1, args.particles // per)
         update["ipf"] = config.ipf.model_copy(update={"kept": kept})
         update["evaluations"] = None
+    if getattr(args, "keypoints", None):
+        update["keypoints"] = config.keypoints.model_copy(update={"enabled": True})
     tracks = getattr(args, "tracks", None)
     if tracks is not None:
         if not 1 <= tracks <= 8:
@@ -221,6 +257,7 @@ def run(args: argparse.Namespace) -> int:
     backgrounds = _per_camera_images(args.background, cameras, "--background", "background")
     masks = _per_camera_images(args.occluder, cameras, "--occluder", "occluder mask", True)
     occluders = None if masks is None else [None if m is None else m.max(axis=2) > 0 for m in masks]
+    keypoint_files = _per_camera_keypoints(args.keypoints, cameras)
     config = build_config(args)
     if backgrounds is None and config.segmentation.mode == "static":
         # No image of the empty scene: learn the background from the footage.
@@ -257,6 +294,7 @@ def run(args: argparse.Namespace) -> int:
         "videos": [str(v) for v in args.videos],
         "backgrounds": list(args.background or []),
         "occluders": list(args.occluder or []),
+        "keypoints": list(args.keypoints or []),
     }
     total = videos.frame_count
     if args.max_frames is not None:
@@ -336,7 +374,10 @@ def run(args: argparse.Namespace) -> int:
                 )
             ) as steps:
                 for (index, time_s, frames), segs in steps:
-                    res = tracker.process_segmentations(index, time_s, segs, frames)
+                    kps = None
+                    if keypoint_files is not None:
+                        kps = [None if f is None else f.get(index) for f in keypoint_files]
+                    res = tracker.process_segmentations(index, time_s, segs, frames, kps)
                     relabel(queue.push(res, tracker.pending_from))
                     bar.update(1)
                     bar.set_postfix(weight=f"{res.weight:.2f}", refresh=False)
