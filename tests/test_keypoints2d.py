@@ -11,7 +11,7 @@ from tracker.body import BodyModel
 from tracker.camera import Camera
 from tracker.config import KeypointConfig, TrackerConfig
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, JointLimits
-from tracker.keypoints2d import LEFT_POINTS, RIGHT_POINTS, KeypointCue
+from tracker.keypoints2d import PARTS, KeypointCue
 from tracker.likelihood import SilhouetteLikelihood, weight_from_counts
 
 SIZE = (320, 240)
@@ -38,7 +38,8 @@ def _detections(body, pose, cameras, swap=None, conf=1.0) -> list[np.ndarray]:
     for cam, sw in zip(cameras, swap or [False] * len(cameras), strict=True):
         d = np.concatenate([cam.project(kp), np.full((len(kp), 1), conf)], axis=1)
         if sw:
-            d[list(LEFT_POINTS) + list(RIGHT_POINTS)] = d[list(RIGHT_POINTS) + list(LEFT_POINTS)]
+            for left, right in PARTS.values():
+                d[list(left) + list(right)] = d[list(right) + list(left)]
         out.append(d)
     return out
 
@@ -51,12 +52,19 @@ def _cue(cameras, dets, typical=None, **kw) -> KeypointCue:
 
 
 @pytest.mark.parametrize(
-    ("dof", "delta"),
-    [("l_knee_flexion", 0.3), ("r_hip_flexion", -0.3), ("r_ankle_flexion", 0.4), ("root_x", 0.1)],
+    ("dof", "delta", "parts"),
+    [
+        ("l_knee_flexion", 0.3, ("legs",)),
+        ("r_hip_flexion", -0.3, ("legs",)),
+        ("r_ankle_flexion", 0.4, ("legs",)),
+        ("root_x", 0.1, ("legs",)),
+        ("l_elbow_flexion", 0.5, ("legs", "arms")),
+        ("r_shoulder_abduction", 0.4, ("arms",)),
+    ],
 )
-def test_score_is_highest_at_the_detected_pose(body, cameras, dof, delta) -> None:
+def test_score_is_highest_at_the_detected_pose(body, cameras, dof, delta, parts) -> None:
     pose = _pose(body)
-    cue = _cue(cameras, _detections(body, pose, cameras))
+    cue = _cue(cameras, _detections(body, pose, cameras), parts=parts)
     poses = np.stack([pose, pose])
     poses[1, DOF[dof]] += delta
     s = cue.scores(body, body.points(poses))
@@ -67,10 +75,15 @@ def test_score_is_highest_at_the_detected_pose(body, cameras, dof, delta) -> Non
 def test_the_detectors_side_labels_do_not_matter_but_both_legs_count(body, cameras) -> None:
     pose = _pose(body)
     right = body.points(pose[None])
+    moved = pose.copy()
+    moved[[DOF["l_knee_flexion"], DOF["r_elbow_flexion"]]] += 0.3
+    poses = body.points(np.stack([pose, moved]))
     base = _cue(cameras, _detections(body, pose, cameras)).scores(body, right)
-    for swap in ((True, False), (False, True), (True, True)):
-        sw = _cue(cameras, _detections(body, pose, cameras, swap=swap)).scores(body, right)
-        assert sw == pytest.approx(base)
+    for parts in (("legs",), ("legs", "arms")):
+        ref = _cue(cameras, _detections(body, pose, cameras), parts=parts).scores(body, poses)
+        for swap in ((True, False), (False, True), (True, True)):
+            dets = _detections(body, pose, cameras, swap=swap)
+            np.testing.assert_allclose(_cue(cameras, dets, parts=parts).scores(body, poses), ref)
     # both model legs on the detected left leg: one leg is always far from its detection
     both = pose.copy()
     both[list(RIGHT_LEG)] = pose[list(LEFT_LEG)]
@@ -103,12 +116,14 @@ def test_missing_and_unconfident_points_are_left_out(body, cameras) -> None:
     assert not cue.has_frame
 
 
-def test_factored_equals_unfactored_with_the_cue(body, cameras) -> None:
+@pytest.mark.parametrize("parts", [("legs",), ("legs", "arms"), ("arms",)])
+def test_factored_equals_unfactored_with_the_cue(body, cameras, parts) -> None:
     pose = _pose(body)
     painted = [_paint(body, pose, c) for c in cameras]
     lik = SilhouetteLikelihood(body, cameras)
     lik.set_silhouettes([p[1] for p in painted])
-    cue = _cue(cameras, _detections(body, pose, cameras, swap=(False, True)), typical=0.6)
+    dets = _detections(body, pose, cameras, swap=(False, True))
+    cue = _cue(cameras, dets, typical=0.6, parts=parts)
     lik.keypoints = cue
     rng = np.random.default_rng(3)
     lo, hi = JointLimits.profile("walking").arrays()
@@ -167,6 +182,10 @@ def test_bad_detections_and_config_are_rejected(body, cameras) -> None:
         cue.set_frame([dets[0][:, :2], dets[1]])
     with pytest.raises(ValidationError):
         KeypointConfig(beta=0)
+    with pytest.raises(ValidationError):
+        KeypointConfig(parts=("tail",))
+    with pytest.raises(ValidationError):
+        KeypointConfig(parts=())
     with pytest.raises(ValidationError):
         TrackerConfig.model_validate({"keypoints": {"enabled": True, "sigma": 2}})
 

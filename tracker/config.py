@@ -1170,6 +1170,14 @@ class KeypointConfig(_Model):
             "height in the image",
         ),
     ] = 0.08
+    parts: Annotated[
+        tuple[Literal["legs", "arms"], ...],
+        Field(
+            min_length=1,
+            description="Scored parts: legs (knees, ankles, heels, toes), arms (shoulders, "
+            "elbows, wrists)",
+        ),
+    ] = ("legs",)
     min_sigma_px: Annotated[
         float, Field(gt=0, le=100, description="Least spread in pixels (a small, far person)")
     ] = 2.0

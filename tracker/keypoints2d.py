@@ -40,6 +40,12 @@ from tracker.camera import Camera
 #: The scored key points of each leg (CONVENTIONS indices): knee, ankle, heel, toe.
 LEFT_POINTS: tuple[int, ...] = (11, 13, 15, 17)
 RIGHT_POINTS: tuple[int, ...] = (12, 14, 16, 18)
+#: The scored parts (config ``parts``): their left and right key points. The legs vary in the
+#: IPF's factored weights; the arms (shoulder, elbow, wrist) lie in the base poses.
+PARTS: dict[str, tuple[tuple[int, ...], tuple[int, ...]]] = {
+    "legs": (LEFT_POINTS, RIGHT_POINTS),
+    "arms": ((3, 5, 7), (4, 6, 8)),
+}
 
 
 class KeypointCue:
@@ -55,9 +61,14 @@ class KeypointCue:
     def __init__(self, cameras: Sequence[Camera], config) -> None:
         self.config = config
         self.cameras = list(cameras)
+        self.parts = tuple(config.parts)
+        unknown = set(self.parts) - set(PARTS)
+        if unknown:
+            raise ValueError(f"unknown key-point parts {sorted(unknown)}: among {sorted(PARTS)}")
         #: Running score of recent estimates (None until the first estimate with detections).
         self.typical: float | None = None
-        self._det: list[np.ndarray | None] | None = None  # per camera (2, 4, 2) or None
+        #: Per camera None or, per part, the detected (2 sides, points, 2) pixels (NaN: none).
+        self._det: list[dict[str, np.ndarray] | None] | None = None
         self._sigma: np.ndarray | None = None  # per camera (K,)
 
     # -- the frame -------------------------------------------------------------------------
@@ -70,7 +81,7 @@ class KeypointCue:
             raise ValueError(
                 f"expected key points for {len(self.cameras)} cameras, got {len(detections)}"
             )
-        det: list[np.ndarray | None] = []
+        det: list[dict[str, np.ndarray] | None] = []
         sigma = np.zeros(len(self.cameras))
         c = self.config
         for i, d in enumerate(detections):
@@ -84,13 +95,13 @@ class KeypointCue:
                 )
             ok = np.isfinite(a).all(axis=1) & (a[:, 2] >= c.min_confidence)
             uv = np.where(ok[:, None], a[:, :2], np.nan)
-            legs = np.stack([uv[list(LEFT_POINTS)], uv[list(RIGHT_POINTS)]])  # (2, 4, 2)
-            if not np.isfinite(legs).any() or ok.sum() < 2:
+            parts = {p: np.stack([uv[list(lr)] for lr in PARTS[p]]) for p in self.parts}
+            if ok.sum() < 2 or not any(np.isfinite(x).any() for x in parts.values()):
                 det.append(None)
                 continue
             height = float(np.nanmax(uv[:, 1]) - np.nanmin(uv[:, 1]))
             sigma[i] = max(c.sigma_fraction * height, c.min_sigma_px)
-            det.append(legs)
+            det.append(parts)
         if all(d is None for d in det):
             self.clear_frame()
             return
@@ -121,44 +132,55 @@ class KeypointCue:
             self._det, self._sigma = list(state[0]), state[1].copy()
 
     # -- scores ----------------------------------------------------------------------------
-    def _leg_sums(self, pts: np.ndarray, side: int) -> tuple[np.ndarray, np.ndarray]:
-        """Summed point scores ``(2, N, K)`` of one leg of poses (``side`` 0 left, 1 right)
+    def _side_sums(self, pts: np.ndarray, part: str, side: int) -> tuple[np.ndarray, np.ndarray]:
+        """Summed point scores ``(2, N, K)`` of one side (0 left, 1 right) of a part of poses
         given their model points ``(N, P, 3)``, against the detector's left (``[0]``) and
-        right (``[1]``) points, and the number of detected leg points per camera ``(K,)`` (each
-        is scored once under either assignment of the legs)."""
-        idx = list(LEFT_POINTS if side == 0 else RIGHT_POINTS)
+        right (``[1]``) points of the part, and the number of the part's detected points per
+        camera ``(K,)`` (each is scored once under either assignment of the sides)."""
+        idx = list(PARTS[part][side])
         n = pts.shape[0]
         sums = np.zeros((2, n, len(self.cameras)))
         counts = np.zeros(len(self.cameras))
         for k, (cam, det) in enumerate(zip(self.cameras, self._det or (), strict=False)):
             if det is None:
                 continue
-            have = np.isfinite(det).all(axis=2).any(axis=0)  # (4,) a point of either side
+            found = np.isfinite(det[part]).all(axis=2)  # (2, points)
+            have = found.any(axis=0)  # a point of either side
             if not have.any():
                 continue
             uv = cam.project(pts[:, idx][:, have])  # (N, h, 2)
             for d_side in (0, 1):
-                d = np.linalg.norm(uv - det[d_side, have][None], axis=2)  # (N, h), NaN: none
-                s = np.exp(-0.5 * (d / self._sigma[k]) ** 2)
-                sums[d_side, :, k] = np.nansum(s, axis=1)
-            counts[k] = float(np.isfinite(det).all(axis=2).sum())  # detected points, both sides
+                d = np.linalg.norm(uv - det[part][d_side, have][None], axis=2)  # NaN: none
+                sums[d_side, :, k] = np.nansum(np.exp(-0.5 * (d / self._sigma[k]) ** 2), axis=1)
+            counts[k] = float(found.sum())
         return sums, counts
 
-    def _mean(self, left: np.ndarray, right: np.ndarray, counts: np.ndarray) -> np.ndarray:
-        """Scores from the legs' sums against each detected side (``(2, ..., K)`` each, shapes
-        broadcasting): per camera the better of the two assignments of the model's legs to the
-        detected ones, then the mean point score over the cameras with detections."""
-        same = left[0] + right[1]
-        swapped = left[1] + right[0]
+    def _best(self, pts_left: np.ndarray, pts_right: np.ndarray, part: str, shape=None):
+        """Per camera the part's summed score under the better of the two assignments of the
+        model's sides to the detected ones ``(..., K)``, and its detected points ``(K,)``; the
+        left side's sums are taken from ``pts_left``, the right's from ``pts_right``, reshaped
+        to ``shape`` (left) and the broadcasting shape of the right when given."""
+        sl, counts = self._side_sums(pts_left, part, 0)
+        sr, _ = self._side_sums(pts_right, part, 1)
+        if shape is not None:
+            k = sl.shape[2]
+            sl = sl.reshape(2, shape[0], -1, 1, k)
+            sr = sr.reshape(2, shape[0], 1, -1, k)
+        return np.maximum(sl[0] + sr[1], sl[1] + sr[0]), counts
+
+    def _mean(self, total: np.ndarray, counts: np.ndarray) -> np.ndarray:
+        """The mean point score over the cameras with detections: ``total`` (..., K)."""
         on = counts > 0
-        best = np.maximum(same, swapped)[..., on]
-        return (best / counts[on]).mean(axis=-1)
+        return (total[..., on] / counts[on]).mean(axis=-1)
 
     def scores(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
         """Scores ``(N,)`` in [0, 1] of poses given their model points ``(N, P, 3)``."""
-        sl, cnt = self._leg_sums(pts, 0)
-        sr, _ = self._leg_sums(pts, 1)
-        return self._mean(sl, sr, cnt)
+        total = np.zeros((pts.shape[0], len(self.cameras)))
+        counts = np.zeros(len(self.cameras))
+        for part in self.parts:
+            best, cnt = self._best(pts, pts, part)
+            total, counts = total + best, counts + cnt
+        return self._mean(total, counts)
 
     def scores_factored(
         self, body: BodyModel, pts_base: np.ndarray, pts_left: np.ndarray, pts_right: np.ndarray
@@ -166,12 +188,18 @@ class KeypointCue:
         """Scores ``(M, A, B)`` of every leg combination (see
         ``SilhouetteLikelihood.weights_factored``) from the points of the base poses ``(M, P,
         3)`` and of the leg variants ``(M * A, P, 3)``, ``(M * B, P, 3)``; equal to
-        :meth:`scores` of the combined poses (the base holds no scored point)."""
+        :meth:`scores` of the combined poses (the arms lie in the base)."""
         m = pts_base.shape[0]
-        sl, cnt = self._leg_sums(pts_left, 0)
-        sr, _ = self._leg_sums(pts_right, 1)
-        k = sl.shape[2]
-        return self._mean(sl.reshape(2, m, -1, 1, k), sr.reshape(2, m, 1, -1, k), cnt)
+        total = np.zeros((m, 1, 1, len(self.cameras)))
+        counts = np.zeros(len(self.cameras))
+        for part in self.parts:
+            if part == "legs":
+                best, cnt = self._best(pts_left, pts_right, part, shape=(m,))
+            else:
+                best, cnt = self._best(pts_base, pts_base, part)
+                best = best[:, None, None, :]
+            total, counts = total + best, counts + cnt
+        return self._mean(total, counts)
 
     def factor(self, scores: np.ndarray) -> np.ndarray:
         """The multiplier of the silhouette weight: ``(scores / typical) ** beta``."""
@@ -197,4 +225,4 @@ class KeypointCue:
         self.typical = None
 
 
-__all__ = ["LEFT_POINTS", "RIGHT_POINTS", "KeypointCue"]
+__all__ = ["LEFT_POINTS", "PARTS", "RIGHT_POINTS", "KeypointCue"]
