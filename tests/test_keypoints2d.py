@@ -45,6 +45,8 @@ def _detections(body, pose, cameras, swap=None, conf=1.0) -> list[np.ndarray]:
 
 
 def _cue(cameras, dets, typical=None, **kw) -> KeypointCue:
+    if "parts" in kw:
+        kw["parts_multi_camera"] = None  # the test's parts with any number of cameras
     cue = KeypointCue(cameras, KeypointConfig(enabled=True, **kw))
     cue.set_frame(dets)
     cue.typical = typical
@@ -103,8 +105,8 @@ def test_missing_and_unconfident_points_are_left_out(body, cameras) -> None:
     assert fewer[0] == pytest.approx(1.0) and fewer[1] > full[1]
     # a camera whose points are all below min_confidence is not used; none at all: no frame
     low = _detections(body, pose, cameras, conf=0.2)
-    cue = _cue(cameras, [low[0], _detections(body, pose, cameras)[1]])
-    one = _cue(cameras[1:], _detections(body, pose, cameras[1:]))
+    cue = _cue(cameras, [low[0], _detections(body, pose, cameras)[1]], parts=("legs",))
+    one = _cue(cameras[1:], _detections(body, pose, cameras[1:]), parts=("legs",))
     np.testing.assert_allclose(
         cue.scores(body, body.points(moved[None])), one.scores(body, body.points(moved[None]))
     )
@@ -171,6 +173,14 @@ def test_inactive_until_an_estimate_and_without_a_frame(body, cameras) -> None:
     cue.restore_frame(state)
     np.testing.assert_array_equal(lik.weights(poses), w)
     assert not TrackerConfig().keypoints.enabled  # off by default
+
+
+def test_parts_follow_the_camera_count(body, cameras) -> None:
+    cfg = KeypointConfig(enabled=True)
+    assert KeypointCue(cameras[:1], cfg).parts == ("legs",)  # measured: arms cost one camera
+    assert KeypointCue(cameras, cfg).parts == ("legs", "arms")
+    same = KeypointConfig(enabled=True, parts=("arms",), parts_multi_camera=None)
+    assert KeypointCue(cameras, same).parts == ("arms",)
 
 
 def test_bad_detections_and_config_are_rejected(body, cameras) -> None:

@@ -1174,10 +1174,17 @@ class KeypointConfig(_Model):
         tuple[Literal["legs", "arms"], ...],
         Field(
             min_length=1,
-            description="Scored parts: legs (knees, ankles, heels, toes), arms (shoulders, "
-            "elbows, wrists)",
+            description="Scored parts with one camera: legs (knees, ankles, heels, toes), arms "
+            "(shoulders, elbows, wrists)",
         ),
     ] = ("legs",)
+    parts_multi_camera: Annotated[
+        tuple[Literal["legs", "arms"], ...] | None,
+        Field(
+            min_length=1,
+            description="Scored parts with two cameras or more (None: as parts)",
+        ),
+    ] = ("legs", "arms")
     min_sigma_px: Annotated[
         float, Field(gt=0, le=100, description="Least spread in pixels (a small, far person)")
     ] = 2.0

@@ -56,12 +56,14 @@ class KeypointCue:
     cameras : sequence of Camera
         The tracker's cameras at the resolution the detections are given in.
     config : tracker.config.KeypointConfig
+        ``parts`` are scored with one camera, ``parts_multi_camera`` with more.
     """
 
     def __init__(self, cameras: Sequence[Camera], config) -> None:
         self.config = config
         self.cameras = list(cameras)
-        self.parts = tuple(config.parts)
+        multi = len(self.cameras) > 1 and config.parts_multi_camera is not None
+        self.parts = tuple(config.parts_multi_camera if multi else config.parts)
         unknown = set(self.parts) - set(PARTS)
         if unknown:
             raise ValueError(f"unknown key-point parts {sorted(unknown)}: among {sorted(PARTS)}")
