@@ -1,4 +1,4 @@
-"""The 2D key-point cue: the model's leg key points against a 2D pose detector's (opt-in).
+"""The 2D key-point cue: the model's key points against a 2D pose detector's (opt-in).
 
 The silhouette cannot tell which of two basins of nearly the same weight the pose lies in
 (``bench/likelihood_ceiling.py``: the truth's basin and the tracker's, both climbed, weigh the
@@ -11,16 +11,18 @@ detected key points per camera to ``Tracker.process(..., keypoints=...)``.
   order, ``(u, v, confidence)`` in that camera's image pixels (the camera file's image size),
   NaN where the detector has no such point; ``None`` for a camera with no detection. Points
   less confident than ``min_confidence`` are unused.
-* **Score** of a pose: each leg key point of the model (knee, ankle, heel, toe of both legs) is
-  projected into each camera with a detection and scores ``exp(-d^2 / 2 s^2)``,
-  ``s`` = ``sigma_fraction`` x the detected person's height in the image (at least
-  ``min_sigma_px``), ``d`` to the detector's point of that kind on the side the model leg is
+* **Score** of a pose: each key point of the model's scored parts (:data:`PARTS`: the legs'
+  knee, ankle, heel and toe; with two cameras or more by default also the arms' shoulder,
+  elbow and wrist) is projected into each camera with a detection and scores ``exp(-d^2 / 2
+  s^2)``, ``s`` = ``sigma_fraction`` x the detected person's height in the image (at least
+  ``min_sigma_px``), ``d`` to the detector's point of that kind on the side the model's limb is
   assigned to. Detectors confuse the sides of a person seen from the side or the back, so per
-  camera the better of the two assignments (the model's left leg to the detected left leg and
-  right to right, or exchanged) counts: both model legs can never settle on one detected leg.
-  The pose's score is the mean over the detected points and the cameras. Each leg's sums against
-  either detected side depend on that leg only, so the score of every leg combination follows
-  from per-leg sums (``scores_factored``) and the IPF's factored weights stay exact.
+  camera and part the better of the two assignments (the model's left limb to the detected
+  left one and right to right, or exchanged) counts: both model legs can never settle on one
+  detected leg. The pose's score is the mean over the detected points and the cameras. Each
+  leg's sums against either detected side depend on that leg only and the arms lie in the base
+  poses, so the score of every leg combination follows from per-leg sums (``scores_factored``)
+  and the IPF's factored weights stay exact.
 * **Combination**: ``SilhouetteLikelihood.keypoints`` multiplies every weight by ``(score /
   typical) ** beta``, ``typical`` the running score of the estimates (``update``), so weights
   keep the IoU scale. The cue is inactive until the first estimate gives the typical score,
@@ -221,10 +223,6 @@ class KeypointCue:
             return
         r = self.config.rate
         self.typical = s if self.typical is None else self.typical + r * (s - self.typical)
-
-    def reset(self) -> None:
-        """Forget the typical score (another person)."""
-        self.typical = None
 
 
 __all__ = ["LEFT_POINTS", "PARTS", "RIGHT_POINTS", "KeypointCue"]
