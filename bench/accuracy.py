@@ -476,6 +476,28 @@ def scene_frames(scene, direct: bool, tmp: Path):
     return frames, masks, bgs, cams, truth
 
 
+#: The 2D pose detector run by ``--detector-python`` (an interpreter of its own).
+DETECTOR = Path(__file__).resolve().parent / "keypoints_mediapipe.py"
+
+
+def detect_keypoints(python: Path, script: Path, frames: list, work: Path) -> list[np.ndarray]:
+    """Per camera a 2D pose detector's ``(T, 19, 3)`` key points of ``frames`` (over time,
+    over cameras): ``script FRAMES.npy OUT.npy`` run by the interpreter ``python``."""
+    out = []
+    for c in range(len(frames[0])):
+        src, dst = work / f"cam{c}-frames.npy", work / f"cam{c}-keypoints.npy"
+        np.save(src, np.stack([f[c] for f in frames]))
+        subprocess.run([str(python), str(script), str(src), str(dst)], check=True)
+        out.append(np.load(dst))
+        src.unlink()
+    return out
+
+
+def per_frame_keypoints(dets: list[np.ndarray], n: int) -> list[list[np.ndarray | None]]:
+    """Detections per camera ``(T, 19, 3)`` -> per frame, per camera (None past the end)."""
+    return [[d[k] if k < len(d) else None for d in dets] for k in range(n)]
+
+
 LIK_SIZE = (160, 120)
 
 
@@ -1291,7 +1313,11 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
         "rendered frames tracked directly (no codec)"
         if args.direct
         else "mp4v video written and decoded"
-    }; at most {args.max_frames} frames per scene;
+    }; at most {args.max_frames} frames per scene{
+        f"; the 2D key-point cue on, fed by `{args.detector.name}` per scene"
+        if args.detector_python
+        else ""
+    };
   {settings_text}likelihood 160x120), given the empty-scene background
   and the true stature; {_seeds_text(args)}.
   Total run time {elapsed_s / 60:.1f} min.
@@ -1420,6 +1446,14 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help="also write every run's scores here (JSON), for bench/paired.py",
     )
     ap.add_argument(
+        "--detector-python",
+        type=Path,
+        help="with the 2D key-point cue: the interpreter that runs the 2D pose detector "
+        "(--detector, default bench/keypoints_mediapipe.py) on every scene's frames; turns "
+        "[keypoints] on",
+    )
+    ap.add_argument("--detector", type=Path, default=DETECTOR, help="the detection script")
+    ap.add_argument(
         "--fit-step",
         type=int,
         default=3,
@@ -1474,6 +1508,8 @@ def main(argv: list[str] | None = None) -> int:
     except TrackerConfigError as err:
         print(f"accuracy: {err}", file=sys.stderr)
         return 2
+    if args.detector_python is not None:  # detections given: the key-point cue on
+        settings = _merged(settings or {}, {"keypoints": {"enabled": True}})
     plan = make_plan(args)
     draws = [(args.seed + i, args.tracker_seed + i) for i in range(args.draws)]
     t_start = time.perf_counter()
@@ -1498,6 +1534,13 @@ def main(argv: list[str] | None = None) -> int:
                 from gaitwatch.sim.synth import occluder_mask
 
                 occluders = [occluder_mask(scene, i) for i in range(len(cams))]
+            keypoints = None
+            if args.detector_python is not None:
+                bar.set_description(f"{rec} {view.label}: 2D key points")
+                work = Path(tmpd) / f"k{si}"
+                work.mkdir()
+                dets = detect_keypoints(args.detector_python, args.detector, frames, work)
+                keypoints = per_frame_keypoints(dets, len(frames))
             bar.set_description(f"{rec} {view.label}: model fit to the truth")
             fits = fit_model_to_truth(scene.body.stature_m, truth, args.fit_step)
             fm = fit_metrics(scene.body.stature_m, fits, truth)
@@ -1517,6 +1560,7 @@ def main(argv: list[str] | None = None) -> int:
                     fits,
                     settings,
                     occluders,
+                    keypoints=keypoints,
                 )
                 m = evaluate(
                     truth,

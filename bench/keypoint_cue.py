@@ -21,7 +21,6 @@ Run::
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -31,7 +30,6 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import accuracy as A  # noqa: E402
 
-DETECTOR = Path(__file__).resolve().parent / "keypoints_mediapipe.py"
 LEGS = (11, 12, 13, 14, 15, 16, 17, 18)  # knees, ankles, heels, toes (left, right alternating)
 EXCHANGED = (12, 11, 14, 13, 16, 15, 18, 17)
 
@@ -41,7 +39,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     ap.add_argument(
         "--detector-python", type=Path, required=True, help="the detector's interpreter"
     )
-    ap.add_argument("--detector", type=Path, default=DETECTOR, help="the detection script")
+    ap.add_argument("--detector", type=Path, default=A.DETECTOR, help="the detection script")
     ap.add_argument("--recordings", help="comma list (with --views; default: the accuracy plan)")
     ap.add_argument("--views", help="comma list of view specs")
     ap.add_argument("--seeds", default="0", help="comma list of scene seeds")
@@ -58,18 +56,6 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         ap.error(f"--seeds must be a comma list of integers, not {args.seeds!r}")
     args.quick = False
     return args
-
-
-def detect(python: Path, script: Path, frames: list, work: Path) -> list[np.ndarray]:
-    """Per camera the detector's ``(T, 19, 3)`` key points of ``frames`` (over time, over
-    cameras)."""
-    out = []
-    for c in range(len(frames[0])):
-        src, dst = work / f"cam{c}.npy", work / f"cam{c}-keypoints.npy"
-        np.save(src, np.stack([f[c] for f in frames]))
-        subprocess.run([str(python), str(script), str(src), str(dst)], check=True)
-        out.append(np.load(dst))
-    return out
 
 
 def detector_error(dets: list[np.ndarray], truth, cams) -> tuple[float, float]:
@@ -136,10 +122,9 @@ def main(argv: list[str] | None = None) -> int:
                 scene = A.build(rec, view, args.max_frames, seed, args.data)
                 frames, masks, bgs, cams, truth = A.scene_frames(scene, not args.codec, work)
                 bar.set_description(f"{rec} {view.label} seed {seed}: detecting")
-                dets = detect(args.detector_python, args.detector, frames, work)
+                dets = A.detect_keypoints(args.detector_python, args.detector, frames, work)
                 det_err.setdefault(view.label, []).append(detector_error(dets, truth, cams))
-                n = len(frames)
-                per_frame = [[d[k] if k < len(d) else None for d in dets] for k in range(n)]
+                per_frame = A.per_frame_keypoints(dets, len(frames))
                 scores = []
                 for settings, kps in ((base_settings, None), (cue_settings, per_frame)):
                     bar.set_description(f"{rec} {view.label} seed {seed}")

@@ -139,3 +139,26 @@ def test_keypoint_bench_without_detections_tracks_as_the_base(
     assert code == 0
     row = next(line for line in capsys.readouterr().out.splitlines() if "| 1 / oblique |" in line)
     assert "(+0.0 +- 0.0)" in row and row.count("(+0.0 +- 0.0)") == 3
+
+
+def test_accuracy_bench_with_a_detector_that_finds_nobody(ceiling, shared_data, tmp_path, capsys):
+    """``bench/accuracy.py --detector-python``: the detector runs on every scene and the cue is
+    turned on; with no detection the scores equal those of the run without a detector."""
+    fake = tmp_path / "nobody.py"
+    fake.write_text(
+        "import sys, numpy as np\n"
+        "f = np.load(sys.argv[1])\n"
+        "np.save(sys.argv[2], np.full((len(f), 19, 3), np.nan))\n"
+    )
+    common = ["--recordings", "07_06", "--views", "oblique", "--max-frames", "5", "--filters",
+              "ipf", "--direct", "--no-out", "--data", str(shared_data)]  # fmt: skip
+    assert ceiling.A.main(common) == 0
+    plain = capsys.readouterr().out
+    detector = ["--detector-python", sys.executable, "--detector", str(fake)]
+    assert ceiling.A.main([*common, *detector]) == 0
+    cued = capsys.readouterr().out
+
+    def rows(text: str) -> list[str]:  # the per-scene rows without the ms/frame column
+        return [ln.rsplit("|", 2)[0] for ln in text.splitlines() if ln.startswith("| 07_06 |")]
+
+    assert rows(plain) and rows(plain) == rows(cued)
