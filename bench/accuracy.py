@@ -1488,7 +1488,7 @@ def make_plan(args) -> list[tuple[str, ViewSpec]]:
         except ValueError as err:
             raise SystemExit(f"accuracy: {err}") from None
         return [(r, v) for r in recs for v in specs]
-    plan = QUICK_PLAN if args.quick else DEFAULT_PLAN
+    plan = QUICK_PLAN if getattr(args, "quick", False) else DEFAULT_PLAN  # other benches: none
     return [(r, ViewSpec.parse(v)) for r, v in plan]
 
 

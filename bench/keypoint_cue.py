@@ -54,7 +54,6 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         args.seed_list = [int(s) for s in args.seeds.split(",")]
     except ValueError:
         ap.error(f"--seeds must be a comma list of integers, not {args.seeds!r}")
-    args.quick = False
     return args
 
 

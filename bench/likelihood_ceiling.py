@@ -14,10 +14,12 @@ cue's frame and the body the tracker has estimated so far):
 2. **nearest optimum**: from the truth fit the weight is climbed by a wide deterministic
    coordinate search of the whole pose (:func:`tracker.refine.refine_pose` with the root, four
    levels, two sweeps; :data:`CLIMB`): the likelihood's local optimum nearest the truth;
-3. the estimate, the truth fit and the nearest optimum are weighed with the tracker's weight
-   (silhouette and colour cue).
+3. **estimate climbed**: the tracker's estimate is climbed by the same search, so that the
+   truth's basin and the tracker's are compared at their optima;
+4. the four poses are weighed with the tracker's weight (silhouette and colour cue).
 
-The key points of the truth fit and of the nearest optimum go through the tracker's output
+The key points of the truth fit, the nearest optimum and the estimate climbed go through the
+tracker's output
 stage (leg labels, smoothing, one camera's depth stage: ``tracker.output.written_keypoints``)
 and are scored against the truth like the tracker's own written key points. The
 nearest-optimum error is what a search that always found the likelihood's best pose in the
@@ -64,7 +66,8 @@ CLIMB = {
 @dataclass
 class CeilingProbe:
     """Called after each frame by ``accuracy.track``: fits the tracker's body to the truth,
-    climbs the weight from there, and keeps both poses' key points and the three weights."""
+    climbs the weight from there and from the estimate, and keeps the three poses' key points
+    and the four weights."""
 
     truth: object  # gaitwatch.trajectory.Trajectory
     climb: object  # tracker.config.RefineConfig
@@ -103,9 +106,9 @@ class CeilingProbe:
         self.climbed_pts.append(np.asarray(body.forward(up.pose[None]))[0])
         self.weights.append((float(w[0]), float(w[1]), float(opt.weight), float(up.weight)))
 
-    def written(self, which: str, cfg, fps: float, cams, smoothed: bool = True):
+    def written(self, which: str, cfg, fps: float, cams):
         """The ``which`` ('fit', 'opt' or 'climbed') key points as a Trajectory, through the
-        tracker's output stage when ``smoothed``."""
+        tracker's output stage."""
         from gaitwatch.trajectory import Trajectory
         from tracker.output import written_keypoints
         from tracker.smoothing import single_camera_eye
@@ -114,16 +117,9 @@ class CeilingProbe:
         pts = np.stack(series[which])
         frames = np.array(self.frames)
         times = frames / fps
-        if smoothed:
-            pts = written_keypoints(
-                times,
-                pts,
-                cfg,
-                fps,
-                np.zeros(len(frames), dtype=bool),
-                frames=frames,
-                eye=single_camera_eye(cams),
-            )
+        restarts = np.zeros(len(frames), dtype=bool)
+        eye = single_camera_eye(cams)
+        pts = written_keypoints(times, pts, cfg, fps, restarts, frames=frames, eye=eye)
         return Trajectory(positions=pts, times=times, frames=list(self.frames), fps=fps)
 
 
@@ -153,7 +149,6 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         args.seed_list = [int(s) for s in args.seeds.split(",")]
     except ValueError:
         ap.error(f"--seeds must be a comma list of integers, not {args.seeds!r}")
-    args.quick = False
     return args
 
 
