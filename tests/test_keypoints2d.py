@@ -172,7 +172,8 @@ def test_inactive_until_an_estimate_and_without_a_frame(body, cameras) -> None:
     assert cue.typical == pytest.approx(first + 0.2 * (1.0 - first))
     cue.restore_frame(state)
     np.testing.assert_array_equal(lik.weights(poses), w)
-    assert not TrackerConfig().keypoints.enabled  # off by default
+    assert TrackerConfig().keypoints.enabled  # on by default, with the built-in detector
+    assert TrackerConfig().keypoints.detector == "blazepose"
 
 
 def test_parts_follow_the_camera_count(body, cameras) -> None:
@@ -221,8 +222,8 @@ def test_tracker_feeds_the_cue_and_without_key_points_tracks_as_before() -> None
             out.append(tr.process(k, k / 20.0, images, keypoints=kp))
         return tr, out
 
-    off_tr, off = run(TrackerConfig(), False)
-    cfg = TrackerConfig.model_validate({"keypoints": {"enabled": True}})
+    off_tr, off = run(TrackerConfig.model_validate({"keypoints": {"enabled": False}}), False)
+    cfg = TrackerConfig.model_validate({"keypoints": {"enabled": True, "detector": "none"}})
     tr, without = run(cfg, False)
     assert tr.likelihood.keypoints is tr.keypoint_cue and off_tr.keypoint_cue is None
     for a, b in zip(off, without, strict=True):

@@ -1136,7 +1136,7 @@ def test_keypoints_on_the_command_line(clip: dict, tmp_path: Path, capsys) -> No
     good.write_text("\n".join(lines) + "\n")
     base = ["--seed", "5", "--max-frames", "4", "--particles", "729"]
     plain, cued = tmp_path / "plain.mcap", tmp_path / "cued.mcap"
-    assert main(_args(clip, plain, *base)) == 0
+    assert main(_args(clip, plain, *base, "--detector", "none")) == 0
     rc = main(_args(clip, cued, *base, "--keypoints", str(good), "--keypoints", "none"))
     assert rc == 0, capsys.readouterr().err
     a, b = read_poselog(plain), read_poselog(cued)
@@ -1144,6 +1144,16 @@ def test_keypoints_on_the_command_line(clip: dict, tmp_path: Path, capsys) -> No
     assert b.metadata["settings"]["tracker"]["keypoints"]["enabled"] is True
     assert not a.metadata["settings"]["tracker"]["keypoints"]["enabled"]
     assert not np.array_equal(a.dofs, b.dofs)
+    # by default the built-in detector runs (the cue on); --detector names it
+    default, named = tmp_path / "default.mcap", tmp_path / "named.mcap"
+    assert main(_args(clip, default, *base, "--max-frames", "2")) == 0
+    settings = read_poselog(default).metadata["settings"]["tracker"]["keypoints"]
+    assert settings["enabled"] is True and settings["detector"] == "blazepose"
+    off = tmp_path / "off.toml"
+    off.write_text("[keypoints]\nenabled = false\n")
+    assert main(_args(clip, named, *base, "--config", str(off), "--detector", "blazepose")) == 0
+    settings = read_poselog(named).metadata["settings"]["tracker"]["keypoints"]
+    assert settings["enabled"] is True and settings["detector"] == "blazepose"
     # one per camera, and not all of them 'none'
     rc = main(_args(clip, tmp_path / "x.mcap", *base, "--keypoints", str(good)))
     err = capsys.readouterr().err.strip()

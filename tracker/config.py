@@ -1152,12 +1152,33 @@ def _image_size(v: tuple[int, int]) -> tuple[int, int]:
 class KeypointConfig(_Model):
     """The 2D key-point cue (:mod:`tracker.keypoints2d`): the model's leg key points projected
     into each camera and scored against key points a 2D pose detector found in that frame
-    (given to ``Tracker.process(..., keypoints=...)``); the weight is multiplied by ``(score /
-    typical) ** beta``. Off by default (docs/tracker.md, "2D key-point cue")."""
+    (given to ``Tracker.process(..., keypoints=...)``, else found by the built-in detector,
+    :mod:`tracker.detector2d`); the weight is multiplied by ``(score / typical) ** beta``. On
+    by default (docs/tracker.md, "2D key-point cue")."""
 
     enabled: Annotated[
         bool, Field(description="Multiply the weight by the detected 2D key points' agreement")
-    ] = False
+    ] = True
+    detector: Annotated[
+        Literal["blazepose", "none"],
+        Field(
+            description="The detector run on each frame given no key points: blazepose (the "
+            "built-in BlazePose GHUM model) or none (only key points given by the caller)"
+        ),
+    ] = "blazepose"
+    crop_scale: Annotated[
+        float,
+        Field(
+            ge=1,
+            le=3,
+            description="The detector's square crop over the silhouette box's longer side",
+        ),
+    ] = 1.3
+    min_presence: Annotated[
+        float,
+        Field(ge=0, le=1, description="Below this presence score the detector found nobody"),
+    ] = 0.5
+    threads: Annotated[int, Field(ge=1, le=64, description="The detector's threads")] = 1
     beta: Annotated[
         float, Field(gt=0, le=20, description="Exponent of the key-point factor (its strength)")
     ] = 1.0

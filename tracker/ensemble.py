@@ -219,7 +219,10 @@ class EnsembleTracker:
         frames: Sequence[np.ndarray] | None = None,
         keypoints: Sequence[np.ndarray | None] | None = None,
     ) -> FrameResult:
-        """As :meth:`tracker.pipeline.Tracker.process_segmentations`, every track in turn."""
+        """As :meth:`tracker.pipeline.Tracker.process_segmentations`, every track in turn (the
+        built-in detector runs once, on the silhouettes before each track chooses its blobs)."""
+        if keypoints is None and frames is not None and not all(s.empty for s in segs):
+            keypoints = self.tracks[0].detect_keypoints(frames, segs)
         results = [
             t.process_segmentations(frame_index, time_s, segs, frames, keypoints)
             for t in self.tracks

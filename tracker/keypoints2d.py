@@ -1,11 +1,12 @@
-"""The 2D key-point cue: the model's key points against a 2D pose detector's (opt-in).
+"""The 2D key-point cue: the model's key points against a 2D pose detector's (on by default).
 
 The silhouette cannot tell which of two basins of nearly the same weight the pose lies in
 (``bench/likelihood_ceiling.py``: the truth's basin and the tracker's, both climbed, weigh the
 same on half the frames). A 2D human-pose detector run on the frame sees the knees, ankles and
 feet inside the silhouette. This module scores poses against such detections; it does not run
-a detector (that is I/O and a model file, outside ``tracker/``): the caller passes each frame's
-detected key points per camera to ``Tracker.process(..., keypoints=...)``.
+a detector: :mod:`tracker.detector2d` is the built-in one, which ``Tracker.process`` runs on each
+frame it is given no key points for, or the caller passes each frame's detected key points per
+camera to ``Tracker.process(..., keypoints=...)``.
 
 * **Detections** of one frame: per camera an array ``(19, 3)`` in the CONVENTIONS key-point
   order, ``(u, v, confidence)`` in that camera's image pixels (the camera file's image size),

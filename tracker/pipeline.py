@@ -403,6 +403,10 @@ class Tracker:
 
             self.keypoint_cue = KeypointCue(self.cameras, c.keypoints)
             likelihood.keypoints = self.keypoint_cue
+        #: The built-in 2D pose detector (config.keypoints.detector) run on the frames that
+        #: come without key points; None when the cue is off, its detector is "none" or the
+        #: detector cannot run here (a warning says so).
+        self.detector = self._make_detector() if self.keypoint_cue is not None else None
         if c.collision.enabled and hasattr(likelihood, "collision"):
             from tracker.collision import CollisionPrior
 
@@ -626,6 +630,29 @@ class Tracker:
         if self.colour is not None:
             self.colour.set_occlusion(maps)
 
+    def _make_detector(self):
+        """The built-in 2D pose detector of config.keypoints, or None (see ``self.detector``)."""
+        from tracker.detector2d import DetectorUnavailableError, make_detector
+
+        try:
+            return make_detector(self.config.keypoints)
+        except DetectorUnavailableError as err:
+            log.warning("%s: the 2D key-point cue scores only key points given to process()", err)
+            return None
+
+    def detect_keypoints(
+        self, frames: Sequence[np.ndarray], segs: Sequence[Segmentation]
+    ) -> list[np.ndarray | None] | None:
+        """The built-in detector's key points per camera (``(19, 3)`` or None) of the person in
+        each silhouette (the chosen blobs give the crop), in the cameras' image pixels; None
+        without a detector."""
+        if self.detector is None:
+            return None
+        if len(frames) != len(self.cameras):
+            raise ValueError(f"{len(frames)} frames for {len(self.cameras)} cameras")
+        sizes = [(cam.width, cam.height) for cam in self.cameras]
+        return self.detector.detect_frames(frames, segs, sizes)
+
     def _learn_occluders(self, masks: Sequence[np.ndarray], notes: list[str]) -> None:
         """Add this frame's silhouettes to the occluder evidence (config.occlusion)."""
         changed = False
@@ -665,6 +692,8 @@ class Tracker:
             else:
                 self.edge_cue.set_frame(frames, [s.mask_full for s in segs])
         if self.keypoint_cue is not None:  # 2D key-point cue: this frame's detections
+            if keypoints is None and frames is not None and self.detector is not None:
+                keypoints = self.detect_keypoints(frames, segs)
             self.keypoint_cue.set_frame(keypoints)
         if any(o is not None for o in self.occlusion):
             self._learn_occluders(masks, notes)
@@ -814,6 +843,7 @@ class Tracker:
             self.limits,
             self._base_limits,
             self._seated_limits,
+            self.detector,
         )
         memo: dict[int, object] = {id(x): x for x in shared}
         memo[id(self._window)] = []

@@ -9,6 +9,7 @@
                     [--particles N] [--tracks N] [--max-frames N]
                     [--segmentation static|mog2|knn] [--threads N] [--allow-length-mismatch]
                     [--no-smoothing] [--no-revise] [--keypoints FILE|none ...]
+                    [--detector blazepose|none]
 
 One VIDEO (a file OpenCV reads, or a folder of numbered PNG/JPEG frames) per ``--camera``, in the
 same order. Frames are processed one at a time (memory does not grow with the footage) and each is
@@ -40,11 +41,12 @@ it, legs hidden behind a table pull the estimate out of shape and off in depth. 
 simulate`` writes such masks for its furniture (docs/tracker.md, "Furniture in front of the
 walk"; without them the tracker learns what it can).
 
-``--keypoints`` gives, per camera, a file of a 2D pose detector's key points for each frame
-(CSV or NumPy, :mod:`service.keypoints`; ``none`` for a camera without) and turns the 2D
-key-point cue on (``[keypoints]`` of ``--config`` for its settings; docs/tracker.md, "2D
-key-point cue"): the model's legs are then also scored against the detected knees, ankles and
-feet. gaitwatch ships no detector; ``bench/keypoints_mediapipe.py`` is one way to make the files.
+The 2D key-point cue (docs/tracker.md, "2D key-point cue"; ``[keypoints]`` of ``--config``)
+scores the model's legs against the knees, ankles and feet a 2D pose detector finds in each frame
+too. By default the built-in detector (BlazePose, :mod:`tracker.detector2d`) runs on every frame;
+``--detector none`` turns the cue off. ``--keypoints`` gives instead, per camera, a file of
+another detector's key points for each frame (CSV or NumPy, :mod:`service.keypoints`; ``none``
+for a camera without), and the built-in detector does not run.
 """
 
 from __future__ import annotations
@@ -104,6 +106,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="FILE",
         help="per camera (repeat): a 2D pose detector's key points per frame (.csv or .npy), "
         "or 'none'; turns the 2D key-point cue on",
+    )
+    p.add_argument(
+        "--detector",
+        choices=("blazepose", "none"),
+        help="the built-in 2D pose detector of the key-point cue (default blazepose); none "
+        "turns the cue off unless --keypoints gives the key points",
     )
     p.add_argument("--filter", choices=FILTER_NAMES, help="body-part filter (default ipf)")
     p.add_argument("--seed", type=int, default=0, help="random seed (0)")
@@ -218,8 +226,12 @@ def build_config(args: argparse.Namespace) -> TrackerConfig:
         kept = max(1, args.particles // per)
         update["ipf"] = config.ipf.model_copy(update={"kept": kept})
         update["evaluations"] = None
-    if getattr(args, "keypoints", None):
-        update["keypoints"] = config.keypoints.model_copy(update={"enabled": True})
+    files, detector = getattr(args, "keypoints", None), getattr(args, "detector", None)
+    if files or detector is not None:  # the cue on with key points from files or a detector
+        kp = {"enabled": bool(files) or detector != "none"}
+        if detector is not None:
+            kp["detector"] = detector
+        update["keypoints"] = config.keypoints.model_copy(update=kp)
     tracks = getattr(args, "tracks", None)
     if tracks is not None:
         if not 1 <= tracks <= 8:

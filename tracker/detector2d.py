@@ -1,0 +1,329 @@
+"""The built-in 2D human-pose detector of the key-point cue: BlazePose GHUM (full) through LiteRT.
+
+The 2D key-point cue (:mod:`tracker.keypoints2d`) scores poses against the key points a 2D pose
+detector finds in each frame. This module is the detector gaitwatch ships, so that the cue works
+with no outside program: MediaPipe's pose landmark model (``models/pose_landmark_full.tflite``,
+BlazePose GHUM 3D, full; Apache 2.0, see ``models/README.md``) run by Google's LiteRT interpreter
+(the ``ai-edge-litert`` package). MediaPipe itself is not used: its releases that carry the model
+need NumPy < 2 and an OpenCV build of their own.
+
+* **Where to look**: MediaPipe finds the person with a second network; the tracker already has
+  the silhouette. The crop is the square around the chosen blobs' bounding box, centred on it,
+  ``crop_scale`` (1.3) times its longer side: the size MediaPipe's own region of interest has
+  around a walking person (the model's alignment points give 1.29-1.32 times the box on the
+  benchmark's renderings). It is resampled to the model's 256 x 256 input, black outside the
+  frame.
+* **What it gives**: per camera an array ``(19, 3)`` in the CONVENTIONS key-point order, ``(u,
+  v, visibility)`` in the frame's pixels (:data:`TO_BLAZEPOSE`: the head is BlazePose's nose,
+  the toes its foot index points; neck and sacrum are NaN, BlazePose has none), or None when
+  the model's presence score is below ``min_presence`` or there is no silhouette.
+* **Cost**: one inference per camera and frame, about 17-22 ms on one core of this machine.
+
+The model is loaded once per :class:`PoseDetector` (the first :meth:`~PoseDetector.detect`); an
+interpreter is not shared between threads.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from gaitwatch.conventions import N_KEYPOINTS
+
+log = logging.getLogger(__name__)
+
+#: The model file shipped with the package.
+MODEL_PATH = Path(__file__).parent / "models" / "pose_landmark_full.tflite"
+#: The model's input side in pixels.
+INPUT_SIZE = 256
+#: Landmarks in the model's output (33 body points, then its alignment and auxiliary points).
+N_LANDMARKS = 39
+#: CONVENTIONS key-point index -> BlazePose landmark index (neck and sacrum have none).
+TO_BLAZEPOSE: dict[int, int] = {
+    0: 0,  # head <- nose
+    3: 11, 4: 12, 5: 13, 6: 14, 7: 15, 8: 16,  # shoulders, elbows, wrists
+    9: 23, 10: 24, 11: 25, 12: 26, 13: 27, 14: 28,  # hips, knees, ankles
+    15: 29, 16: 30, 17: 31, 18: 32,  # heels, toes <- foot index
+}  # fmt: skip
+
+
+class DetectorUnavailableError(RuntimeError):
+    """The detector's runtime or model file is missing."""
+
+
+def _sigmoid(x: np.ndarray) -> np.ndarray:
+    return 1.0 / (1.0 + np.exp(-np.clip(x, -60.0, 60.0)))
+
+
+def crop_box(box: tuple[float, float, float, float], scale: float) -> tuple[float, float, float]:
+    """The square crop ``(centre u, centre v, side)`` around a bounding box ``(x, y, width,
+    height)`` in pixels: centred on it, ``scale`` times its longer side."""
+    x, y, w, h = (float(v) for v in box)
+    return x + 0.5 * w, y + 0.5 * h, scale * max(w, h, 1.0)
+
+
+def crop_transform(cu: float, cv: float, side: float, angle: float = 0.0) -> np.ndarray:
+    """The affine map ``(2, 3)`` from frame pixels to the model's input pixels that takes the
+    square of ``side`` centred on ``(cu, cv)``, turned by ``angle`` (radians, image axes: the
+    crop's up is the frame's direction ``(sin angle, -cos angle)``), to the whole input."""
+    s = INPUT_SIZE / side
+    c, n = np.cos(angle), np.sin(angle)
+    a = s * np.array([[c, n], [-n, c]])
+    t = 0.5 * INPUT_SIZE - a @ np.array([cu, cv], dtype=np.float64)
+    return np.column_stack([a, t])
+
+
+def alignment_crop(uv: np.ndarray, scale: float = 1.25) -> tuple[float, float, float, float]:
+    """The crop ``(centre u, centre v, side, angle)`` that BlazePose's alignment points (its
+    landmarks 33, the hips' centre, and 34, which sets the body's extent and direction) give,
+    as MediaPipe tracks a person from one frame to the next: centred on the hips, ``2 x scale``
+    times the extent, turned so that the body points up."""
+    c0, c1 = np.asarray(uv[33], dtype=np.float64), np.asarray(uv[34], dtype=np.float64)
+    d = c1 - c0
+    # the crop's up (sin a, -cos a) along d
+    return (
+        float(c0[0]),
+        float(c0[1]),
+        2.0 * scale * float(np.hypot(*d)),
+        float(np.arctan2(d[0], -d[1])),
+    )
+
+
+def silhouette_box(blobs: Sequence) -> tuple[int, int, int, int] | None:
+    """The bounding box ``(x, y, width, height)`` of blobs (:class:`tracker.segmentation.Blob`),
+    or None without any."""
+    boxes = [b.bbox for b in blobs]
+    if not boxes:
+        return None
+    x0 = min(b[0] for b in boxes)
+    y0 = min(b[1] for b in boxes)
+    x1 = max(b[0] + b[2] for b in boxes)
+    y1 = max(b[1] + b[3] for b in boxes)
+    return x0, y0, x1 - x0, y1 - y0
+
+
+class PoseDetector:
+    """BlazePose GHUM (full) on a crop of a frame (module docstring).
+
+    Parameters
+    ----------
+    crop_scale : float
+        The crop's side over the silhouette box's longer side.
+    min_presence : float
+        Below this presence score the model saw nobody: no detection.
+    threads : int
+        The interpreter's threads.
+    model_path : path, optional
+        The ``.tflite`` file (default :data:`MODEL_PATH`).
+    """
+
+    def __init__(
+        self,
+        crop_scale: float = 1.3,
+        min_presence: float = 0.5,
+        threads: int = 1,
+        model_path: str | Path | None = None,
+    ) -> None:
+        if not crop_scale > 0:
+            raise ValueError(f"crop_scale must be > 0, not {crop_scale}")
+        if not 0 <= min_presence <= 1:
+            raise ValueError(f"min_presence must be in [0, 1], not {min_presence}")
+        if threads < 1:
+            raise ValueError(f"threads must be >= 1, not {threads}")
+        self.crop_scale = float(crop_scale)
+        self.min_presence = float(min_presence)
+        self.threads = int(threads)
+        self.model_path = Path(model_path) if model_path is not None else MODEL_PATH
+        self._interp = None
+        self._io: tuple[int, int, int] | None = None
+        #: Per camera index the crop followed from the last frame (:meth:`detect_frames`).
+        self._follow: dict[int, tuple[float, float, float, float]] = {}
+
+    # -- the model -------------------------------------------------------------------------
+    def load(self) -> None:
+        """Load the model (done by the first :meth:`detect`); raises
+        :class:`DetectorUnavailableError` when the runtime or the file is missing."""
+        if self._interp is not None:
+            return
+        try:
+            from ai_edge_litert.interpreter import Interpreter
+        except ImportError as err:
+            raise DetectorUnavailableError(
+                "the 2D pose detector needs the ai-edge-litert package "
+                f"(pip install ai-edge-litert): {err}"
+            ) from None
+        if not self.model_path.is_file():
+            raise DetectorUnavailableError(f"pose model not found: {self.model_path}")
+        interp = Interpreter(model_path=str(self.model_path), num_threads=self.threads)
+        interp.allocate_tensors()
+        inp = interp.get_input_details()[0]
+        if tuple(inp["shape"]) != (1, INPUT_SIZE, INPUT_SIZE, 3):
+            raise DetectorUnavailableError(
+                f"{self.model_path}: input shape {tuple(inp['shape'])}, expected "
+                f"(1, {INPUT_SIZE}, {INPUT_SIZE}, 3)"
+            )
+        outs = {d["name"]: d for d in interp.get_output_details()}
+        try:
+            marks, flag = outs["Identity"], outs["Identity_1"]
+        except KeyError:
+            raise DetectorUnavailableError(
+                f"{self.model_path}: not a BlazePose landmark model (outputs {sorted(outs)})"
+            ) from None
+        if int(np.prod(marks["shape"])) != 5 * N_LANDMARKS:
+            raise DetectorUnavailableError(
+                f"{self.model_path}: {int(np.prod(marks['shape']))} landmark values, expected "
+                f"{5 * N_LANDMARKS}"
+            )
+        self._interp = interp
+        self._io = (int(inp["index"]), int(marks["index"]), int(flag["index"]))
+
+    def __deepcopy__(self, memo: dict) -> PoseDetector:
+        """Copies share the loaded interpreter (a model is read-only; the tracker's backward
+        copy runs no detector)."""
+        memo[id(self)] = self
+        return self
+
+    # -- detection -------------------------------------------------------------------------
+    def landmarks(
+        self, image_bgr: np.ndarray, crop: tuple[float, float, float, float]
+    ) -> tuple[np.ndarray, np.ndarray, float]:
+        """The model's 39 landmarks ``(39, 2)`` in frame pixels, their visibility ``(39,)`` in
+        [0, 1] and the presence score, on the crop ``(centre u, centre v, side, angle)``
+        (:func:`crop_transform`)."""
+        img = np.asarray(image_bgr)
+        if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
+            raise ValueError(
+                f"the detector takes uint8 BGR frames (H, W, 3), got {img.dtype} {img.shape}"
+            )
+        self.load()
+        m = crop_transform(*crop)
+        scale = INPUT_SIZE / crop[2]
+        src, warp = img, m
+        if scale < 1.0:  # shrinking: average the pixels first (no aliasing), then turn
+            h, w = img.shape[:2]
+            dw, dh = max(1, round(w * scale)), max(1, round(h * scale))
+            src = cv2.resize(img, (dw, dh), interpolation=cv2.INTER_AREA)
+            sx, sy = dw / w, dh / h  # a resized pixel x' = s (x + 0.5) - 0.5
+            warp = m.copy()
+            warp[:, 0] /= sx
+            warp[:, 1] /= sy
+            warp[:, 2] += m[:, :2] @ np.array([0.5 / sx - 0.5, 0.5 / sy - 0.5])
+        x = cv2.warpAffine(
+            src,
+            warp,
+            (INPUT_SIZE, INPUT_SIZE),
+            flags=cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=(0, 0, 0),
+        )
+        x = cv2.cvtColor(x, cv2.COLOR_BGR2RGB).astype(np.float32)
+        x *= 1.0 / 255.0
+        inp, marks_i, flag_i = self._io  # type: ignore[misc]
+        self._interp.set_tensor(inp, x[None])
+        self._interp.invoke()
+        raw = np.asarray(self._interp.get_tensor(marks_i), dtype=np.float64).reshape(N_LANDMARKS, 5)
+        # The presence output is a probability already (0.00003 on a black crop).
+        presence = float(np.clip(np.asarray(self._interp.get_tensor(flag_i)).ravel()[0], 0, 1))
+        uv = (raw[:, :2] - m[:, 2]) @ np.linalg.inv(m[:, :2]).T  # input -> frame pixels
+        return uv, _sigmoid(raw[:, 3]), presence
+
+    def _keypoints(self, uv: np.ndarray, vis: np.ndarray) -> np.ndarray:
+        out = np.full((N_KEYPOINTS, 3), np.nan)
+        for ours, theirs in TO_BLAZEPOSE.items():
+            out[ours] = (uv[theirs, 0], uv[theirs, 1], vis[theirs])
+        return out
+
+    def detect(
+        self,
+        image_bgr: np.ndarray,
+        box: tuple[float, float, float, float] | None,
+        crop: tuple[float, float, float, float] | None = None,
+    ) -> np.ndarray | None:
+        """Key points ``(19, 3)`` ``(u, v, visibility)`` in the frame's pixels of the person in
+        ``box`` ``(x, y, width, height)`` (the crop around it, or ``crop``, :meth:`landmarks`);
+        None without a box or when the model sees nobody."""
+        det = self._detect(image_bgr, box, crop)
+        return None if det is None else det[0]
+
+    def _detect(self, image_bgr, box, crop):
+        """:meth:`detect` and the crop the model's alignment points give for the next frame."""
+        if box is None or box[2] <= 0 or box[3] <= 0:
+            return None
+        if crop is None:
+            crop = (*crop_box(box, self.crop_scale), 0.0)
+        uv, vis, presence = self.landmarks(image_bgr, crop)
+        if presence < self.min_presence:
+            return None
+        return self._keypoints(uv, vis), alignment_crop(uv)
+
+    def reset(self) -> None:
+        """Forget the crops followed from frame to frame (:meth:`detect_frames`)."""
+        self._follow = {}
+
+    def detect_frames(
+        self,
+        frames: Sequence[np.ndarray],
+        segs: Sequence,
+        sizes: Sequence[tuple[int, int]] | None = None,
+    ) -> list[np.ndarray | None]:
+        """Per camera the key points of the person in the silhouette (``segs``:
+        :class:`tracker.segmentation.Segmentation`, whose blobs give the box), successive
+        frames of a video: as MediaPipe does, each camera's crop follows the person from the
+        previous frame's alignment points (:func:`alignment_crop`: it covers legs that furniture
+        hides from the silhouette and turns with a person who bends or lies down) while the
+        silhouette box's centre stays inside it, else it is the box's (:func:`crop_box`).
+        ``sizes``, per camera ``(width, height)`` of the camera's image, rescales the points
+        when a frame is of another size."""
+        if len(frames) != len(segs):
+            raise ValueError(f"{len(frames)} frames for {len(segs)} segmentations")
+        follow = self._follow
+        out: list[np.ndarray | None] = []
+        for k, (frame, seg) in enumerate(zip(frames, segs, strict=True)):
+            box = None if seg.empty else silhouette_box(seg.blobs)
+            crop = follow.pop(k, None)
+            if box is None:
+                out.append(None)
+                continue
+            if crop is not None and not _inside(crop, box):
+                crop = None
+            found = self._detect(frame, box, crop)
+            if found is None and crop is not None:  # lost: from the silhouette again
+                found = self._detect(frame, box, None)
+            if found is None:
+                out.append(None)
+                continue
+            det, follow[k] = found
+            if sizes is not None:
+                w, h = sizes[k]
+                fh, fw = frame.shape[:2]
+                if (fw, fh) != (w, h):
+                    det[:, 0] *= w / fw
+                    det[:, 1] *= h / fh
+            out.append(det)
+        return out
+
+
+def _inside(crop: tuple[float, float, float, float], box: tuple) -> bool:
+    """True when the box's centre lies in the crop's inner half and the crop is no smaller than
+    the box's longer side (a crop followed from an earlier frame still holds the person)."""
+    cu, cv, side, _ = crop
+    x, y, w, h = box
+    du, dv = x + 0.5 * w - cu, y + 0.5 * h - cv
+    return bool(max(abs(du), abs(dv)) < 0.25 * side and side >= max(w, h))
+
+
+def make_detector(config) -> PoseDetector | None:
+    """The detector of a :class:`tracker.config.KeypointConfig` (None when the cue is off or
+    its ``detector`` is ``"none"``). Raises :class:`DetectorUnavailableError` when it cannot
+    run."""
+    if not config.enabled or config.detector == "none":
+        return None
+    det = PoseDetector(
+        crop_scale=config.crop_scale, min_presence=config.min_presence, threads=config.threads
+    )
+    det.load()
+    return det
