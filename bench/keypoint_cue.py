@@ -4,8 +4,10 @@ For each scene of the plan (``bench/accuracy.py``'s scenes, rendered straight to
 unless ``--codec``), every camera's frames are given to a 2D pose detector run in another
 interpreter (``--detector-python``; ``bench/keypoints_mediapipe.py``, which needs MediaPipe and
 so NumPy < 2, hence not gaitwatch's own environment), and the scene is tracked twice with the
-same seeds: with the defaults (or ``--base-config``) and with the key-point cue on (the
-defaults of ``[keypoints]``, or ``--config``), the detections given per frame. Prints each
+same seeds: with the defaults (or ``--base-config``; since session 36 the defaults run the cue
+with the built-in detector, ``--base-config bench/configs/no-keypoints.toml`` leaves the cue
+out) and with the key-point cue on (the defaults of ``[keypoints]``, or ``--config``), the
+outside detector's detections given per frame. Prints each
 run's errors and the paired differences (cue minus base, mean +- standard error) per camera
 count and view. Also prints how far the detector's leg points lie from the true key points
 projected (per view: median over frames of the mean distance under the better assignment of

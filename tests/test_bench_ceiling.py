@@ -125,16 +125,20 @@ def test_detector_error_of_exact_and_exchanged_detections(keypoint_bench):
 def test_keypoint_bench_without_detections_tracks_as_the_base(
     keypoint_bench, shared_data, tmp_path, capsys
 ):
-    """A detector that finds nobody: the cue never scores, so the two runs are equal."""
+    """A detector that finds nobody: the cue never scores, so the two runs (the base without
+    the cue, whose defaults would run the built-in detector) are equal."""
     fake = tmp_path / "nobody.py"
     fake.write_text(
         "import sys, numpy as np\n"
         "f = np.load(sys.argv[1])\n"
         "np.save(sys.argv[2], np.full((len(f), 19, 3), np.nan))\n"
     )
+    off = tmp_path / "off.toml"
+    off.write_text("[keypoints]\nenabled = false\n")
     code = keypoint_bench.main(
         ["--detector-python", sys.executable, "--detector", str(fake), "--recordings", "07_06",
-         "--views", "oblique", "--max-frames", "5", "--data", str(shared_data)]
+         "--views", "oblique", "--max-frames", "5", "--data", str(shared_data),
+         "--base-config", str(off)]
     )  # fmt: skip
     assert code == 0
     row = next(line for line in capsys.readouterr().out.splitlines() if "| 1 / oblique |" in line)
@@ -143,16 +147,19 @@ def test_keypoint_bench_without_detections_tracks_as_the_base(
 
 def test_accuracy_bench_with_a_detector_that_finds_nobody(ceiling, shared_data, tmp_path, capsys):
     """``bench/accuracy.py --detector-python``: the detector runs on every scene and the cue is
-    turned on; with no detection the scores equal those of the run without a detector."""
+    turned on, its detections replacing the built-in detector's; with no detection the scores
+    equal those of the run without the cue."""
     fake = tmp_path / "nobody.py"
     fake.write_text(
         "import sys, numpy as np\n"
         "f = np.load(sys.argv[1])\n"
         "np.save(sys.argv[2], np.full((len(f), 19, 3), np.nan))\n"
     )
+    off = tmp_path / "off.toml"
+    off.write_text("[keypoints]\nenabled = false\n")
     common = ["--recordings", "07_06", "--views", "oblique", "--max-frames", "5", "--filters",
               "ipf", "--direct", "--no-out", "--data", str(shared_data)]  # fmt: skip
-    assert ceiling.A.main(common) == 0
+    assert ceiling.A.main([*common, "--config", str(off)]) == 0
     plain = capsys.readouterr().out
     detector = ["--detector-python", sys.executable, "--detector", str(fake)]
     assert ceiling.A.main([*common, *detector]) == 0

@@ -256,3 +256,40 @@ def test_a_person_lying_down_is_found_in_a_turned_crop(detector, side_walk) -> N
     empty = Seg(box)
     empty.empty = True
     assert detector.detect_frames([frame], [empty]) == [None] and not detector._follow
+
+
+def test_legs_cut_by_furniture_or_the_frame_are_left_out() -> None:
+    """The legs' detections are dropped where an occluder lies under the silhouette's upper
+    half (or just below it) or the silhouette reaches the image's lower edge; kept else."""
+    from tracker.pipeline import LEG_POINTS, Tracker, _legs_cut
+    from tracker.synthetic import side_cameras
+
+    cam = side_cameras(1, image_size=(320, 240), centre=(1.0, 0.0), fps=25.0)[0]
+    box = (100, 40, 40, 120)  # x 100-140, y 40-160
+    occ = np.zeros((120, 160), dtype=bool)  # the likelihood's resolution: half the camera's
+    assert not _legs_cut(box, None, cam) and not _legs_cut(box, occ, cam)
+    assert _legs_cut((100, 100, 40, 139), None, cam)  # down to the last row but one
+    table = occ.copy()
+    table[85:95, 40:90] = True  # rows 170-190 of the camera: just below the box, under it
+    assert _legs_cut(box, table, cam)
+    aside = occ.copy()
+    aside[60:100, 100:120] = True  # columns 200-240: beside the person
+    assert not _legs_cut(box, aside, cam)
+    above = occ.copy()
+    above[0:30, 50:70] = True  # over the head and the chest
+    assert not _legs_cut(box, above, cam)
+
+    tr = Tracker([cam], TrackerConfig(), rng=np.random.default_rng(0), height_m=1.70)
+    tr.set_occluders([np.kron(table, np.ones((2, 2), dtype=bool))])
+
+    class Seg:
+        empty = False
+        blobs = [Blob(1, 1, 0.1, box, (120.0, 100.0))]
+
+    det = np.column_stack([np.full((19, 2), 120.0), np.ones(19)])
+    seen = tr._legs_seen([det], [Seg()])[0]
+    assert np.isnan(seen[list(LEG_POINTS)]).all() and np.isfinite(seen[:11]).all()
+    assert np.isfinite(det).all()  # the caller's array is not changed
+    tr.set_occluders(None)
+    assert np.array_equal(tr._legs_seen([det], [Seg()])[0], det)
+    assert tr._legs_seen(None, [Seg()]) is None
