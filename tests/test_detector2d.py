@@ -153,6 +153,10 @@ def test_bad_frames_and_settings_are_refused(detector, side_walk, tmp_path) -> N
         PoseDetector(min_presence=2)
     with pytest.raises(DetectorUnavailableError, match="not found"):
         PoseDetector(model_path=tmp_path / "missing.tflite").load()
+    junk = tmp_path / "junk.tflite"
+    junk.write_bytes(b"not a model" * 100)
+    with pytest.raises(DetectorUnavailableError, match="junk.tflite: not a model"):
+        PoseDetector(model_path=junk).load()
     assert make_detector(KeypointConfig(detector="none")) is None
     assert make_detector(KeypointConfig(enabled=False)) is None
 
@@ -293,3 +297,28 @@ def test_legs_cut_by_furniture_or_the_frame_are_left_out() -> None:
     tr.set_occluders(None)
     assert np.array_equal(tr._legs_seen([det], [Seg()])[0], det)
     assert tr._legs_seen(None, [Seg()]) is None
+
+
+def test_several_tracks_share_one_detection_per_frame(scene, side_walk, monkeypatch) -> None:
+    """``--tracks 2``: the built-in detector runs once per frame, for every track."""
+    from tracker.ensemble import make_tracker
+
+    frames, _, _ = side_walk
+    bgs = [cv2.cvtColor(render_background(scene, 0), cv2.COLOR_RGB2BGR)]
+    cfg = TrackerConfig.model_validate({"ensemble": {"tracks": 2}})
+    tr = make_tracker(scene.cameras, cfg, rng=np.random.default_rng(0), backgrounds=bgs)
+    calls = []
+    first = tr.tracks[0].detector
+    original = first.detect_frames
+
+    def counting(*a, **k):
+        calls.append(1)
+        return original(*a, **k)
+
+    monkeypatch.setattr(first, "detect_frames", counting)
+    for t in tr.tracks[1:]:
+        monkeypatch.setattr(t.detector, "detect_frames", lambda *a, **k: pytest.fail("again"))
+    for k, frame in enumerate(frames[:2]):
+        tr.process(k, k / 25.0, [frame])
+    assert len(calls) == 2
+    assert all(t.keypoint_cue.has_frame for t in tr.tracks)

@@ -8,11 +8,13 @@ BlazePose GHUM 3D, full; Apache 2.0, see ``models/README.md``) run by Google's L
 need NumPy < 2 and an OpenCV build of their own.
 
 * **Where to look**: MediaPipe finds the person with a second network; the tracker already has
-  the silhouette. The crop is the square around the chosen blobs' bounding box, centred on it,
-  ``crop_scale`` (1.3) times its longer side: the size MediaPipe's own region of interest has
-  around a walking person (the model's alignment points give 1.29-1.32 times the box on the
-  benchmark's renderings). It is resampled to the model's 256 x 256 input, black outside the
-  frame.
+  the silhouette. The first crop is the square around the chosen blobs' bounding box, centred
+  on it, ``crop_scale`` (1.3) times its longer side: the size MediaPipe's own region of
+  interest has around a walking person (the model's alignment points gave 1.29-1.32 times the
+  box on a rendered walk). Then, as MediaPipe tracks, each camera's crop follows the person
+  from the previous frame's alignment points, turned with the body
+  (:meth:`PoseDetector.detect_frames`). It is resampled to the model's 256 x 256 input
+  (averaged first when it shrinks), black outside the frame.
 * **What it gives**: per camera an array ``(19, 3)`` in the CONVENTIONS key-point order, ``(u,
   v, visibility)`` in the frame's pixels (:data:`TO_BLAZEPOSE`: the head is BlazePose's nose,
   the toes its foot index points; neck and sacrum are NaN, BlazePose has none), or None when
@@ -25,7 +27,6 @@ interpreter is not shared between threads.
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -33,8 +34,6 @@ import cv2
 import numpy as np
 
 from gaitwatch.conventions import N_KEYPOINTS
-
-log = logging.getLogger(__name__)
 
 #: The model file shipped with the package.
 MODEL_PATH = Path(__file__).parent / "models" / "pose_landmark_full.tflite"
@@ -158,8 +157,13 @@ class PoseDetector:
             ) from None
         if not self.model_path.is_file():
             raise DetectorUnavailableError(f"pose model not found: {self.model_path}")
-        interp = Interpreter(model_path=str(self.model_path), num_threads=self.threads)
-        interp.allocate_tensors()
+        try:
+            interp = Interpreter(model_path=str(self.model_path), num_threads=self.threads)
+            interp.allocate_tensors()
+        except (ValueError, RuntimeError) as err:
+            raise DetectorUnavailableError(
+                f"{self.model_path}: not a model LiteRT can run: {err}".splitlines()[0]
+            ) from None
         inp = interp.get_input_details()[0]
         if tuple(inp["shape"]) != (1, INPUT_SIZE, INPUT_SIZE, 3):
             raise DetectorUnavailableError(
