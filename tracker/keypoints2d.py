@@ -75,6 +75,9 @@ class KeypointCue:
         #: Per camera None or, per part, the detected (2 sides, points, 2) pixels (NaN: none).
         self._det: list[dict[str, np.ndarray] | None] | None = None
         self._sigma: np.ndarray | None = None  # per camera (K,)
+        #: Per camera None or, per part with a detected point, what the scores need
+        #: (:meth:`_prepare`).
+        self._prep: list[dict[str, tuple] | None] | None = None
 
     # -- the frame -------------------------------------------------------------------------
     def set_frame(self, detections: Sequence[np.ndarray | None] | None) -> None:
@@ -111,10 +114,33 @@ class KeypointCue:
             self.clear_frame()
             return
         self._det, self._sigma = det, sigma
+        self._prepare()
+
+    def _prepare(self) -> None:
+        """Per camera and part the detected kinds of point (either side), the model's point
+        indices of each side for them, the detected points ``(2, H, 2)`` (0 where missing),
+        which are there ``(2, H)``, and how many."""
+        prep: list[dict[str, tuple] | None] = []
+        for det in self._det or ():
+            if det is None:
+                prep.append(None)
+                continue
+            parts: dict[str, tuple] = {}
+            for part, pts in det.items():
+                found = np.isfinite(pts).all(axis=2)  # (2, points)
+                have = np.flatnonzero(found.any(axis=0))  # a point of either side
+                if not len(have):
+                    continue
+                sels = tuple([PARTS[part][side][j] for j in have] for side in (0, 1))
+                valid = found[:, have]
+                filled = np.where(valid[..., None], pts[:, have], 0.0)
+                parts[part] = (sels, filled, valid, float(found.sum()))
+            prep.append(parts)
+        self._prep = prep
 
     def clear_frame(self) -> None:
         """No detections this frame: the cue does not score it."""
-        self._det = self._sigma = None
+        self._det = self._sigma = self._prep = None
 
     @property
     def has_frame(self) -> bool:
@@ -135,38 +161,48 @@ class KeypointCue:
             self.clear_frame()
         else:
             self._det, self._sigma = list(state[0]), state[1].copy()
+            self._prepare()
 
     # -- scores ----------------------------------------------------------------------------
-    def _side_sums(self, pts: np.ndarray, part: str, side: int) -> tuple[np.ndarray, np.ndarray]:
-        """Summed point scores ``(2, N, K)`` of one side (0 left, 1 right) of a part of poses
-        given their model points ``(N, P, 3)``, against the detector's left (``[0]``) and
-        right (``[1]``) points of the part, and the number of the part's detected points per
-        camera ``(K,)`` (each is scored once under either assignment of the sides)."""
-        idx = list(PARTS[part][side])
+    def _side_sums(
+        self, pts: np.ndarray, part: str, sides: tuple[int, ...]
+    ) -> tuple[list[np.ndarray], np.ndarray]:
+        """Per side in ``sides`` (0 left, 1 right) of a part the summed point scores ``(2, N,
+        K)`` of poses given their model points ``(N, P, 3)``, against the detector's left
+        (``[0]``) and right (``[1]``) points of the part, and the number of the part's detected
+        points per camera ``(K,)`` (each is scored once under either assignment of the sides).
+        One projection per camera serves every side asked for."""
         n = pts.shape[0]
-        sums = np.zeros((2, n, len(self.cameras)))
+        out = [np.zeros((2, n, len(self.cameras))) for _ in sides]
         counts = np.zeros(len(self.cameras))
-        for k, (cam, det) in enumerate(zip(self.cameras, self._det or (), strict=False)):
-            if det is None:
+        for k, (cam, prep) in enumerate(zip(self.cameras, self._prep or (), strict=False)):
+            entry = None if prep is None else prep.get(part)
+            if entry is None:
                 continue
-            found = np.isfinite(det[part]).all(axis=2)  # (2, points)
-            have = found.any(axis=0)  # a point of either side
-            if not have.any():
-                continue
-            uv = cam.project(pts[:, idx][:, have])  # (N, h, 2)
-            for d_side in (0, 1):
-                d = np.linalg.norm(uv - det[part][d_side, have][None], axis=2)  # NaN: none
-                sums[d_side, :, k] = np.nansum(np.exp(-0.5 * (d / self._sigma[k]) ** 2), axis=1)
-            counts[k] = float(found.sum())
-        return sums, counts
+            sels, filled, valid, count = entry
+            h = len(sels[0])
+            cols = sels[sides[0]] if len(sides) == 1 else sels[0] + sels[1]
+            uv_all = cam.project(pts[:, cols])
+            for j, sums in enumerate(out):
+                uv = uv_all[:, j * h : (j + 1) * h]  # (N, h, 2)
+                diff = uv[None] - filled[:, None]  # (2 detected sides, N, h, 2)
+                d = np.sqrt(diff[..., 0] ** 2 + diff[..., 1] ** 2)  # as np.linalg.norm
+                g = np.exp(-0.5 * (d / self._sigma[k]) ** 2)
+                g = np.where(valid[:, None] & (g == g), g, 0.0)  # NaN: a point behind the camera
+                sums[:, :, k] = g.sum(axis=2)
+            counts[k] = count
+        return out, counts
 
     def _best(self, pts_left: np.ndarray, pts_right: np.ndarray, part: str, shape=None):
         """Per camera the part's summed score under the better of the two assignments of the
         model's sides to the detected ones ``(..., K)``, and its detected points ``(K,)``; the
         left side's sums are taken from ``pts_left``, the right's from ``pts_right``, reshaped
         to ``shape`` (left) and the broadcasting shape of the right when given."""
-        sl, counts = self._side_sums(pts_left, part, 0)
-        sr, _ = self._side_sums(pts_right, part, 1)
+        if pts_left is pts_right:
+            (sl, sr), counts = self._side_sums(pts_left, part, (0, 1))
+        else:
+            (sl,), counts = self._side_sums(pts_left, part, (0,))
+            (sr,), _ = self._side_sums(pts_right, part, (1,))
         if shape is not None:
             k = sl.shape[2]
             sl = sl.reshape(2, shape[0], -1, 1, k)
