@@ -30,6 +30,14 @@ LEGS = [11, 12, 13, 14, 15, 16, 17, 18]
 EXCHANGED = [12, 11, 14, 13, 16, 15, 18, 17]
 
 
+class _Seg:
+    """A stand-in segmentation: one blob with the given box (or an empty frame)."""
+
+    def __init__(self, box, empty: bool = False) -> None:
+        self.empty = empty
+        self.blobs = [] if empty else [Blob(1, 1, 0.1, tuple(int(v) for v in box), (0.0, 0.0))]
+
+
 @pytest.fixture(scope="module")
 def detector() -> PoseDetector:
     return PoseDetector()
@@ -118,27 +126,19 @@ def test_points_follow_the_frame_size(detector, side_walk) -> None:
     """Frames twice the camera's size: the points come back in the camera's pixels."""
     frames, boxes, _ = side_walk
 
-    class Seg:
-        empty = False
-
-        def __init__(self, box):
-            self.blobs = [Blob(1, 1, 0.1, tuple(int(v) for v in box), (0.0, 0.0))]
-
     mapped = sorted(TO_BLAZEPOSE)
     gaps = []
     for frame, box in list(zip(frames, boxes, strict=True))[::2]:
         big = cv2.resize(frame, None, fx=2, fy=2, interpolation=cv2.INTER_LINEAR)
-        small = detector.detect_frames([frame], [Seg(box)])[0]
-        scaled = detector.detect_frames([big], [Seg([2 * v for v in box])], sizes=[(320, 240)])
+        small = detector.detect_frames([frame], [_Seg(box)])[0]
+        scaled = detector.detect_frames([big], [_Seg([2 * v for v in box])], sizes=[(320, 240)])
         gaps.append(np.linalg.norm(scaled[0][mapped, :2] - small[mapped, :2], axis=1))
     # The same crops resampled from larger images: the points agree, in the 320x240 frame's
     # pixels (measured: median 1.5 px; a frame where the legs cross moves an ankle by 19 px).
     assert np.median(np.concatenate(gaps)) < 2.0
-    empty = Seg(boxes[3])
-    empty.empty = True
-    assert detector.detect_frames([frames[3]], [empty]) == [None]
+    assert detector.detect_frames([frames[3]], [_Seg(None, empty=True)]) == [None]
     with pytest.raises(ValueError, match="1 frames for 2"):
-        detector.detect_frames([frames[3]], [Seg(boxes[3]), Seg(boxes[3])])
+        detector.detect_frames([frames[3]], [_Seg(boxes[3]), _Seg(boxes[3])])
 
 
 def test_bad_frames_and_settings_are_refused(detector, side_walk, tmp_path) -> None:
@@ -187,11 +187,9 @@ def test_the_tracker_runs_it_on_frames_given_no_key_points(side_walk) -> None:
     tr = Tracker(cams, TrackerConfig(), rng=np.random.default_rng(0), height_m=1.70)
     assert tr.detector is not None and tr.config.keypoints.detector == "blazepose"
 
-    class Seg:
-        empty = False
-        blobs = [Blob(1, 1, 0.1, tuple(int(v) for v in boxes[0]), (0.0, 0.0))]
+    seg = _Seg(boxes[0])
 
-    kp = tr.detect_keypoints([frames[0]], [Seg()])
+    kp = tr.detect_keypoints([frames[0]], [seg])
     assert kp is not None and kp[0] is not None and np.isfinite(kp[0][LEGS]).all()
     assert copy.deepcopy(tr.detector) is tr.detector
     off = Tracker(
@@ -201,7 +199,7 @@ def test_the_tracker_runs_it_on_frames_given_no_key_points(side_walk) -> None:
         height_m=1.70,
     )
     assert off.keypoint_cue is not None and off.detector is None
-    assert off.detect_keypoints([frames[0]], [Seg()]) is None
+    assert off.detect_keypoints([frames[0]], [seg]) is None
 
 
 def test_process_scores_each_frame_against_the_detections(scene, side_walk) -> None:
@@ -245,21 +243,15 @@ def test_a_person_lying_down_is_found_in_a_turned_crop(detector, side_walk) -> N
     mapped = sorted(TO_BLAZEPOSE)
     assert np.median(np.linalg.norm(back[mapped] - upright[mapped, :2], axis=1)) < 1.0
 
-    class Seg:
-        empty = False
-
-        def __init__(self, box):
-            self.blobs = [Blob(1, 1, 0.1, tuple(int(v) for v in box), (0.0, 0.0))]
-
     detector.reset()
-    detector.detect_frames([frame], [Seg(box)])
+    detector.detect_frames([frame], [_Seg(box)])
     assert detector._follow[0] == pytest.approx(crop)
     far = (box[0] + 200, box[1], box[2], box[3])  # the silhouette left the crop: the new
-    assert detector.detect_frames([frame], [Seg(far)]) == [None]  # box's crop holds nobody
+    assert detector.detect_frames([frame], [_Seg(far)]) == [None]  # box's crop holds nobody
     assert not detector._follow
-    empty = Seg(box)
-    empty.empty = True
-    assert detector.detect_frames([frame], [empty]) == [None] and not detector._follow
+    assert (
+        detector.detect_frames([frame], [_Seg(None, empty=True)]) == [None] and not detector._follow
+    )
 
 
 def test_legs_cut_by_furniture_or_the_frame_are_left_out() -> None:
@@ -286,17 +278,15 @@ def test_legs_cut_by_furniture_or_the_frame_are_left_out() -> None:
     tr = Tracker([cam], TrackerConfig(), rng=np.random.default_rng(0), height_m=1.70)
     tr.set_occluders([np.kron(table, np.ones((2, 2), dtype=bool))])
 
-    class Seg:
-        empty = False
-        blobs = [Blob(1, 1, 0.1, box, (120.0, 100.0))]
+    seg = _Seg(box)
 
     det = np.column_stack([np.full((19, 2), 120.0), np.ones(19)])
-    seen = tr._legs_seen([det], [Seg()])[0]
+    seen = tr._legs_seen([det], [seg])[0]
     assert np.isnan(seen[list(LEG_POINTS)]).all() and np.isfinite(seen[:11]).all()
     assert np.isfinite(det).all()  # the caller's array is not changed
     tr.set_occluders(None)
-    assert np.array_equal(tr._legs_seen([det], [Seg()])[0], det)
-    assert tr._legs_seen(None, [Seg()]) is None
+    assert np.array_equal(tr._legs_seen([det], [seg])[0], det)
+    assert tr._legs_seen(None, [seg]) is None
 
 
 def test_several_tracks_share_one_detection_per_frame(scene, side_walk, monkeypatch) -> None:

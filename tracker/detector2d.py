@@ -48,6 +48,8 @@ TO_BLAZEPOSE: dict[int, int] = {
     9: 23, 10: 24, 11: 25, 12: 26, 13: 27, 14: 28,  # hips, knees, ankles
     15: 29, 16: 30, 17: 31, 18: 32,  # heels, toes <- foot index
 }  # fmt: skip
+_OURS = np.array(list(TO_BLAZEPOSE))
+_THEIRS = np.array(list(TO_BLAZEPOSE.values()))
 
 
 class DetectorUnavailableError(RuntimeError):
@@ -235,10 +237,12 @@ class PoseDetector:
         uv = (raw[:, :2] - m[:, 2]) @ np.linalg.inv(m[:, :2]).T  # input -> frame pixels
         return uv, _sigmoid(raw[:, 3]), presence
 
-    def _keypoints(self, uv: np.ndarray, vis: np.ndarray) -> np.ndarray:
+    @staticmethod
+    def _keypoints(uv: np.ndarray, vis: np.ndarray) -> np.ndarray:
+        """The landmarks as CONVENTIONS key points ``(19, 3)`` (NaN where BlazePose has none)."""
         out = np.full((N_KEYPOINTS, 3), np.nan)
-        for ours, theirs in TO_BLAZEPOSE.items():
-            out[ours] = (uv[theirs, 0], uv[theirs, 1], vis[theirs])
+        out[_OURS, :2] = uv[_THEIRS]
+        out[_OURS, 2] = vis[_THEIRS]
         return out
 
     def detect(

@@ -70,6 +70,7 @@ from tracker.detector2d import silhouette_box
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, SEATED_DOFS, wrap_angle
 from tracker.filters import Filter, make_filter, select_distinct
 from tracker.init import body_configurations, camera_floor_point, floor_point, initial_search
+from tracker.keypoints2d import LEFT_POINTS, RIGHT_POINTS
 from tracker.occlusion import OcclusionLearner, background_regions
 from tracker.origin import search_origin
 from tracker.raster import numba_threads, prefer_passive_openmp
@@ -2092,9 +2093,9 @@ class Tracker:
 __all__ = ["NOBODY_IN_VIEW", "FrameResult", "Tracker", "N_DOF"]
 
 
-#: The leg key points of the key-point cue dropped when the legs may be cut off (knees,
-#: ankles, heels, toes).
-LEG_POINTS: tuple[int, ...] = tuple(range(11, 19))
+#: The key-point cue's leg points (knees, ankles, heels, toes), dropped when the legs may be
+#: cut off.
+LEG_POINTS: tuple[int, ...] = LEFT_POINTS + RIGHT_POINTS
 
 
 def _legs_cut(box: tuple[int, int, int, int], occ: np.ndarray | None, cam) -> bool:
