@@ -774,6 +774,7 @@ def track(
             np.array(restarts),
             frames=np.array(out_f),
             eye=single_camera_eye(cams),
+            keypoint_cue=cfg.keypoints.enabled and (keypoints is not None or tr.detects_keypoints),
         )
         est = Trajectory(positions=smoothed, times=np.array(out_t), frames=out_f, fps=fps)
     else:

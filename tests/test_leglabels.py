@@ -8,7 +8,7 @@ from pydantic import ValidationError
 
 from gaitwatch.conventions import L_ANKLE, L_HEEL, L_KNEE, L_TOE, R_ANKLE, R_HEEL, R_KNEE, R_TOE
 from tracker.config import LegLabelConfig, TrackerConfig
-from tracker.leglabels import LegRelabeller, exchange_legs, relabel_legs
+from tracker.leglabels import LegRelabeller, chooses_labels, exchange_legs, relabel_legs
 
 FPS = 20.0
 
@@ -143,3 +143,62 @@ def test_config_is_validated_and_on_by_default() -> None:
         LegRelabeller(lag=-1, swap_cost=0.1)
     with pytest.raises(ValueError, match="fps"):
         LegRelabeller.from_config(LegLabelConfig(), 0.0)
+
+
+@pytest.mark.parametrize(
+    ("setting", "single", "cue", "chosen"),
+    [
+        ("auto", False, True, True),  # two cameras or more: always
+        ("off", False, True, True),
+        ("auto", True, False, True),  # one camera without the key-point cue
+        ("auto", True, True, False),  # one camera with the cue: the tracker's labels
+        ("on", True, True, True),
+        ("off", True, False, False),
+    ],
+)
+def test_one_camera_keeps_its_labels_where_the_keypoint_cue_informs_them(
+    setting: str, single: bool, cue: bool, chosen: bool
+) -> None:
+    truth = _walk(seed=4)
+    est = truth.copy()
+    est[20:26] = exchange_legs(truth[20:26])
+    cfg = LegLabelConfig(single_camera=setting)
+    assert chooses_labels(cfg, single_camera=single, keypoint_cue=cue) is chosen
+    t = np.arange(len(est)) / FPS
+    out, exchanged = relabel_legs(t, est, cfg, FPS, single_camera=single, keypoint_cue=cue)
+    if chosen:
+        assert exchanged[20:26].all() and exchanged.sum() == 6
+        np.testing.assert_allclose(out, truth)
+    else:
+        assert not exchanged.any()
+        np.testing.assert_array_equal(out, est)
+    rl = LegRelabeller.from_config(cfg, FPS, single_camera=single, keypoint_cue=cue)
+    assert rl.enabled is chosen
+    assert not chooses_labels(
+        LegLabelConfig(enabled=False, single_camera="on"), single_camera=single, keypoint_cue=cue
+    )
+    with pytest.raises(ValidationError):
+        LegLabelConfig(single_camera="sometimes")
+
+
+def test_written_keypoints_read_the_cue_from_the_settings_unless_told() -> None:
+    from tracker.output import written_keypoints
+
+    truth = _walk(seed=5)
+    est = truth.copy()
+    est[30:35] = exchange_legs(truth[30:35])
+    t = np.arange(len(est)) / FPS
+    off = TrackerConfig.model_validate({"smoothing": {"enabled": False}})
+    cue_off = TrackerConfig.model_validate(
+        {"smoothing": {"enabled": False}, "keypoints": {"enabled": False}}
+    )
+    eye = np.array([0.0, -4.0, 1.2])
+
+    def exchanged(cfg: TrackerConfig, eye_: np.ndarray | None, **kw: bool) -> bool:
+        out = written_keypoints(t, est, cfg, FPS, eye=eye_, **kw)
+        return bool(np.allclose(out[30:35], truth[30:35]))
+
+    assert exchanged(off, None)  # two cameras: relabelled
+    assert not exchanged(off, eye)  # one camera, the cue on by default: kept
+    assert exchanged(cue_off, eye)  # one camera without the cue: relabelled
+    assert exchanged(off, eye, keypoint_cue=False)  # the detector could not run

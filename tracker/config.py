@@ -1405,6 +1405,15 @@ class LegLabelConfig(_Model):
     max_gap_s: Annotated[
         float, Field(gt=0, le=10, description="A longer step between two frames ends a segment")
     ] = 0.5
+    single_camera: Annotated[
+        Literal["auto", "on", "off"],
+        Field(
+            description="With one camera: 'auto' chooses the labels only when the 2D key-point "
+            "cue has no detections to score (it is off, or its detector does not run), where "
+            "smooth motion was measured to help; with the cue, one camera's own labels did "
+            "better. Two cameras or more always choose them (when enabled)"
+        ),
+    ] = "auto"
 
 
 class ReviseConfig(_Model):

@@ -181,6 +181,11 @@ class EnsembleTracker:
         return self.tracks[0].likelihood
 
     @property
+    def detects_keypoints(self) -> bool:
+        """Whether the built-in 2D pose detector runs (the first track's, for all tracks)."""
+        return self.tracks[0].detects_keypoints
+
+    @property
     def evaluations_per_step(self) -> int:
         """The filters' likelihood evaluations per frame, all tracks together."""
         return int(sum(t.evaluations_per_step for t in self.tracks))

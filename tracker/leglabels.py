@@ -18,6 +18,10 @@ ending at the newest frame, read back); :meth:`~LegRelabeller.flush` decides the
 are those of the smoother: a frame without a pose, a (re)initialised track, or a gap of more
 than ``max_gap_s`` ends one, and each segment is decided on its own.
 
+With one camera and the 2D key-point cue the tracker's own labels stand by default
+(:func:`chooses_labels`, ``config.single_camera``): there the detections inform each frame's
+legs, and one camera's noisy depth makes the smoothest labelling the worse choice (measured).
+
 Only the key points change; the pose vector (DOFs) and the weight stay the tracker's own. On an
 exchanged frame the written key points of the legs are therefore not the forward kinematics of
 the written DOFs with the legs exchanged (that would mirror the legs about the pelvis).
@@ -91,15 +95,23 @@ class LegRelabeller:
         self._reset()
 
     @classmethod
-    def from_config(cls, config: LegLabelConfig, fps: float) -> LegRelabeller:
-        """The relabeller of ``config`` at frame rate ``fps``."""
+    def from_config(
+        cls,
+        config: LegLabelConfig,
+        fps: float,
+        *,
+        single_camera: bool = False,
+        keypoint_cue: bool = False,
+    ) -> LegRelabeller:
+        """The relabeller of ``config`` at frame rate ``fps``; ``single_camera`` and
+        ``keypoint_cue`` as in :func:`chooses_labels`."""
         if not (np.isfinite(fps) and fps > 0):
             raise ValueError(f"fps must be positive, not {fps}")
         return cls(
             int(round(config.lag_s * fps)),
             config.swap_cost_m2,
             config.max_gap_s,
-            enabled=config.enabled,
+            enabled=chooses_labels(config, single_camera=single_camera, keypoint_cue=keypoint_cue),
         )
 
     # -- stream -----------------------------------------------------------------------------
@@ -201,6 +213,23 @@ class LegRelabeller:
         return frame
 
 
+def chooses_labels(config: LegLabelConfig, *, single_camera: bool, keypoint_cue: bool) -> bool:
+    """Whether the labels are chosen by smooth motion (``config.enabled``): always with two
+    cameras or more; with one camera (``single_camera``) as ``config.single_camera`` says,
+    ``"auto"`` only when the 2D key-point cue has no detections to score (``keypoint_cue``
+    False: the cue is off, or neither its detector nor given key points feed it).
+
+    Why: with one camera the depth of each leg point is noisy, and where the cue's detections
+    inform each frame's legs the tracker's own labels were measured better than the smoothest
+    labelling (session 37: lower limbs -9 mm over 36 one-camera runs without relabelling);
+    without the cue smooth motion helps one camera too (session 18: -6.5 mm)."""
+    if not config.enabled:
+        return False
+    if not single_camera or config.single_camera == "on":
+        return True
+    return config.single_camera == "auto" and not keypoint_cue
+
+
 def relabel_legs(
     times: np.ndarray,
     joints: np.ndarray,
@@ -208,11 +237,17 @@ def relabel_legs(
     fps: float,
     restarts: np.ndarray | None = None,
     frames: np.ndarray | None = None,
+    *,
+    single_camera: bool = False,
+    keypoint_cue: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The whole-footage form: ``joints`` (T, 19, 3) of frames with a pose at ``times`` (T,),
-    ``restarts`` and ``frames`` as in :func:`tracker.smoothing.smooth_keypoints`. Returns the
+    ``restarts`` and ``frames`` as in :func:`tracker.smoothing.smooth_keypoints`,
+    ``single_camera`` and ``keypoint_cue`` as in :func:`chooses_labels`. Returns the
     relabelled joints (T, 19, 3) and which frames were exchanged (T,) bool."""
-    rl = LegRelabeller.from_config(config, fps)
+    rl = LegRelabeller.from_config(
+        config, fps, single_camera=single_camera, keypoint_cue=keypoint_cue
+    )
     out: list[LabelledFrame] = []
     for t, j, r in zip(times, joints, segment_starts(len(times), restarts, frames), strict=True):
         out += rl.push(float(t), j, restart=bool(r))

@@ -20,11 +20,27 @@ def written_keypoints(
     restarts: np.ndarray | None = None,
     frames: np.ndarray | None = None,
     eye: np.ndarray | None = None,
+    *,
+    keypoint_cue: bool | None = None,
 ) -> np.ndarray:
     """``joints`` (T, 19, 3) of the frames with a pose at ``times`` (T,) -> the written (T, 19,
     3), with ``config.leg_labels`` and ``config.smoothing``; ``restarts``, ``frames`` and
     ``eye`` (the camera's centre when one camera sees the person,
     :func:`tracker.smoothing.single_camera_eye`) as in
-    :func:`tracker.smoothing.smooth_keypoints`."""
-    labelled, _ = relabel_legs(times, joints, config.leg_labels, fps, restarts, frames)
+    :func:`tracker.smoothing.smooth_keypoints`. ``keypoint_cue``: whether the 2D key-point cue
+    had detections to score (the tracker's detector ran, or key points were given), which
+    decides one camera's leg labels (:func:`tracker.leglabels.chooses_labels`); None: as
+    ``config.keypoints`` says (on, with a detector)."""
+    if keypoint_cue is None:
+        keypoint_cue = config.keypoints.enabled and config.keypoints.detector != "none"
+    labelled, _ = relabel_legs(
+        times,
+        joints,
+        config.leg_labels,
+        fps,
+        restarts,
+        frames,
+        single_camera=eye is not None,
+        keypoint_cue=keypoint_cue,
+    )
     return smooth_keypoints(times, labelled, config.smoothing, fps, restarts, frames, eye)

@@ -588,6 +588,12 @@ class Tracker:
             return res
 
     @property
+    def detects_keypoints(self) -> bool:
+        """Whether the built-in 2D pose detector runs on frames given without key points (the
+        key-point cue is on, its detector is not "none" and can run here)."""
+        return self.detector is not None
+
+    @property
     def evaluations_per_step(self) -> int:
         """The filter's likelihood evaluations per frame (:attr:`Filter.evaluations_per_step`)."""
         return int(self.filter.evaluations_per_step)

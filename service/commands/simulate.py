@@ -191,6 +191,7 @@ def tracker_callable(seed: int = 0):
             np.array(restarts),
             frames=np.array(frames),
             eye=single_camera_eye(clip.cameras),
+            keypoint_cue=tracker.detects_keypoints,
         )
         return Trajectory(positions=smoothed, times=np.array(times), frames=frames)
 

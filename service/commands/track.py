@@ -313,7 +313,13 @@ def run(args: argparse.Namespace) -> int:
         total = min(total, args.max_frames) if total else args.max_frames
     out = Path(args.out)
     n_pose = n_none = 0
-    relabeller = LegRelabeller.from_config(config.leg_labels, cameras[0].fps)
+    relabeller = LegRelabeller.from_config(
+        config.leg_labels,
+        cameras[0].fps,
+        single_camera=len(cameras) == 1,
+        keypoint_cue=config.keypoints.enabled
+        and (keypoint_files is not None or tracker.detects_keypoints),
+    )
     smoother = KeypointSmoother.from_config(
         config.smoothing, cameras[0].fps, single_camera_eye(cameras)
     )
