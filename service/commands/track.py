@@ -15,7 +15,8 @@ One VIDEO (a file OpenCV reads, or a folder of numbered PNG/JPEG frames) per ``-
 same order. Frames are processed one at a time (memory does not grow with the footage) and each is
 written to the pose log as soon as it is final: a pose, or a "no pose" status with its reason.
 Each frame's leg labels are chosen by smooth motion of the feet half a second later
-(:mod:`tracker.leglabels`; ``[leg_labels]`` in ``--config``), then the key points of each
+(:mod:`tracker.leglabels`; ``[leg_labels]`` in ``--config``; with one camera and the 2D key-point
+cue the tracker's own labels are kept), then the key points of each
 continuous track are smoothed over 0.45 s (:mod:`tracker.smoothing`, a centred quadratic fit,
 quartic for the ankles, heels and toes; ``--no-smoothing`` or ``[smoothing]`` in ``--config`` to
 change), so a frame is written about three quarters of a second of footage after it was read. The
