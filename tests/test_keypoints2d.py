@@ -118,6 +118,36 @@ def test_missing_and_unconfident_points_are_left_out(body, cameras) -> None:
     assert not cue.has_frame
 
 
+def test_a_tolerance_scores_near_points_as_matches(body, cameras) -> None:
+    pose = _pose(body)
+    cam = cameras[:1]
+    det = _detections(body, pose, cam)[0]
+    height = float(np.nanmax(det[:, 1]) - np.nanmin(det[:, 1]))
+    sigma, tol = 0.08 * height, 0.05 * height
+    pts = body.points(pose[None])
+    for shift, tolerance, expected in [
+        (0.04 * height, 0.05, 1.0),  # within the tolerance: a match
+        (0.09 * height, 0.05, np.exp(-0.5 * ((0.09 * height - tol) / sigma) ** 2)),
+        (0.09 * height, 0.0, np.exp(-0.5 * (0.09 * height / sigma) ** 2)),
+    ]:
+        moved = det.copy()
+        moved[:, :2] += shift * np.array([0.6, 0.8])  # every point, the same distance
+        cue = _cue(cam, [moved], tolerance_fraction=tolerance)
+        assert cue.scores(body, pts)[0] == pytest.approx(expected, rel=1e-9)
+        state = cue.frame_state()  # the backward pass keeps the tolerance with the frame
+        cue.clear_frame()
+        cue.restore_frame(state)
+        assert cue.scores(body, pts)[0] == pytest.approx(expected, rel=1e-9)
+    # a tolerance leaves the far basins far: a swapped-in wrong leg still scores lower
+    cue = _cue(cameras, _detections(body, pose, cameras), tolerance_fraction=0.05)
+    both = pose.copy()
+    both[list(RIGHT_LEG)] = pose[list(LEFT_LEG)]
+    s = cue.scores(body, body.points(np.stack([pose, both])))
+    assert s[0] == pytest.approx(1.0) and s[1] < 0.9
+    with pytest.raises(ValidationError):
+        KeypointConfig(tolerance_fraction=-0.1)
+
+
 @pytest.mark.parametrize("parts", [("legs",), ("legs", "arms"), ("arms",)])
 def test_factored_equals_unfactored_with_the_cue(body, cameras, parts) -> None:
     pose = _pose(body)

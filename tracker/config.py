@@ -1191,6 +1191,16 @@ class KeypointConfig(_Model):
             "height in the image",
         ),
     ] = 0.08
+    tolerance_fraction: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="A detected point's distances up to this fraction of the detected "
+            "person's height score as a match (the detector's own error); farther ones are "
+            "scored from the tolerance's edge. 0: none",
+        ),
+    ] = 0.0
     parts: Annotated[
         tuple[Literal["legs", "arms"], ...],
         Field(

@@ -17,7 +17,9 @@ camera to ``Tracker.process(..., keypoints=...)``.
   elbow and wrist) is projected into each camera with a detection and scores ``exp(-d^2 / 2
   s^2)``, ``s`` = ``sigma_fraction`` x the detected person's height in the image (at least
   ``min_sigma_px``), ``d`` to the detector's point of that kind on the side the model's limb is
-  assigned to. Detectors confuse the sides of a person seen from the side or the back, so per
+  assigned to, less ``tolerance_fraction`` x that height (opt-in, 0 by default: distances
+  within it score as a match, so the detector's own small errors do not pull the pose).
+  Detectors confuse the sides of a person seen from the side or the back, so per
   camera and part the better of the two assignments (the model's left limb to the detected
   left one and right to right, or exchanged) counts: both model legs can never settle on one
   detected leg. The pose's score is the mean over the detected points and the cameras. Each
@@ -75,6 +77,7 @@ class KeypointCue:
         #: Per camera None or, per part, the detected (2 sides, points, 2) pixels (NaN: none).
         self._det: list[dict[str, np.ndarray] | None] | None = None
         self._sigma: np.ndarray | None = None  # per camera (K,)
+        self._tol: np.ndarray | None = None  # per camera (K,), pixels
         #: Per camera None or, per part with a detected point, what the scores need
         #: (:meth:`_prepare`).
         self._prep: list[dict[str, tuple] | None] | None = None
@@ -91,6 +94,7 @@ class KeypointCue:
             )
         det: list[dict[str, np.ndarray] | None] = []
         sigma = np.zeros(len(self.cameras))
+        tol = np.zeros(len(self.cameras))
         c = self.config
         for i, d in enumerate(detections):
             if d is None:
@@ -109,11 +113,12 @@ class KeypointCue:
                 continue
             height = float(np.nanmax(uv[:, 1]) - np.nanmin(uv[:, 1]))
             sigma[i] = max(c.sigma_fraction * height, c.min_sigma_px)
+            tol[i] = c.tolerance_fraction * height
             det.append(parts)
         if all(d is None for d in det):
             self.clear_frame()
             return
-        self._det, self._sigma = det, sigma
+        self._det, self._sigma, self._tol = det, sigma, tol
         self._prepare()
 
     def _prepare(self) -> None:
@@ -140,7 +145,7 @@ class KeypointCue:
 
     def clear_frame(self) -> None:
         """No detections this frame: the cue does not score it."""
-        self._det = self._sigma = self._prep = None
+        self._det = self._sigma = self._tol = self._prep = None
 
     @property
     def has_frame(self) -> bool:
@@ -153,14 +158,16 @@ class KeypointCue:
 
     def frame_state(self) -> tuple | None:
         """This frame's detections, for :meth:`restore_frame` (the backward pass)."""
-        return None if self._det is None else (list(self._det), self._sigma.copy())
+        if self._det is None:
+            return None
+        return list(self._det), self._sigma.copy(), self._tol.copy()
 
     def restore_frame(self, state: tuple | None) -> None:
         """Set the frame kept by :meth:`frame_state` (None: no frame)."""
         if state is None:
             self.clear_frame()
         else:
-            self._det, self._sigma = list(state[0]), state[1].copy()
+            self._det, self._sigma, self._tol = list(state[0]), state[1].copy(), state[2].copy()
             self._prepare()
 
     # -- scores ----------------------------------------------------------------------------
@@ -187,6 +194,8 @@ class KeypointCue:
                 uv = uv_all[:, j * h : (j + 1) * h]  # (N, h, 2)
                 diff = uv[None] - filled[:, None]  # (2 detected sides, N, h, 2)
                 d = np.sqrt(diff[..., 0] ** 2 + diff[..., 1] ** 2)  # as np.linalg.norm
+                if self._tol[k] > 0:  # within the tolerance: a match
+                    d = np.maximum(d - self._tol[k], 0.0)
                 g = np.exp(-0.5 * (d / self._sigma[k]) ** 2)
                 g = np.where(valid[:, None] & (g == g), g, 0.0)  # NaN: a point behind the camera
                 sums[:, :, k] = g.sum(axis=2)
