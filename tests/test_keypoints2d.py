@@ -148,14 +148,17 @@ def test_a_tolerance_scores_near_points_as_matches(body, cameras) -> None:
         KeypointConfig(tolerance_fraction=-0.1)
 
 
-@pytest.mark.parametrize("parts", [("legs",), ("legs", "arms"), ("arms",)])
-def test_factored_equals_unfactored_with_the_cue(body, cameras, parts) -> None:
+@pytest.mark.parametrize(
+    ("parts", "tolerance"),
+    [(("legs",), 0.0), (("legs", "arms"), 0.0), (("arms",), 0.0), (("legs", "arms"), 0.05)],
+)
+def test_factored_equals_unfactored_with_the_cue(body, cameras, parts, tolerance) -> None:
     pose = _pose(body)
     painted = [_paint(body, pose, c) for c in cameras]
     lik = SilhouetteLikelihood(body, cameras)
     lik.set_silhouettes([p[1] for p in painted])
     dets = _detections(body, pose, cameras, swap=(False, True))
-    cue = _cue(cameras, dets, typical=0.6, parts=parts)
+    cue = _cue(cameras, dets, typical=0.6, parts=parts, tolerance_fraction=tolerance)
     lik.keypoints = cue
     rng = np.random.default_rng(3)
     lo, hi = JointLimits.profile("walking").arrays()
