@@ -138,7 +138,10 @@ def walking_frames() -> dict:
 def _track(clip: dict, arms: dict, n_cams: int = 2):
     from tracker.pipeline import Tracker
 
-    cfg = TrackerConfig.model_validate({"ipf": {"kept": 9}, "arms": arms})
+    # the legs' refinement off: the two tracks differ only by the arm search
+    cfg = TrackerConfig.model_validate(
+        {"ipf": {"kept": 9}, "arms": arms, "leg_refine": {"enabled": False}}
+    )
     cams = clip["cams"][:n_cams]
     frames = [fr[:n_cams] for fr in clip["frames"]]
     tr = Tracker(

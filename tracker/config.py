@@ -936,6 +936,52 @@ class RefineConfig(_Model):
         return _check_dof_keys(v, "range_overrides")
 
 
+class LegRefineConfig(_Model):
+    """The legs' flexion refined on the silhouettes alone after the filter (on by default with
+    two cameras or more and the 2D key-point cue on): each hip's and knee's flexion is searched
+    locally (:func:`tracker.refine.refine_pose`: the combinations of one move per leg, ranges
+    halved per level) on the weight without the key-point cue, whose detections under-read the
+    knee's bend (docs/tracker.md, "Session 38"); the pose found is the frame's estimate when
+    the silhouettes prefer it. The filter's particles are left as they are."""
+
+    enabled: Annotated[
+        bool, Field(description="Refine the legs' flexion on the silhouettes after the filter")
+    ] = True
+    min_cameras: Annotated[
+        int,
+        Field(
+            ge=1,
+            le=16,
+            description="Only with this many cameras or more (one camera's silhouette is "
+            "ambiguous without the cue)",
+        ),
+    ] = 2
+    range_deg: Annotated[
+        float, Field(gt=0, le=45, description="+- range of hip and knee flexion, degrees")
+    ] = 8.0
+    offsets: Annotated[
+        int,
+        Field(ge=2, le=12, description="Values per DOF and level (even: +-r, +-r/2, ...)"),
+    ] = 4
+    levels: Annotated[
+        int, Field(ge=1, le=6, description="Searches with ranges halved each level")
+    ] = 2
+
+    def refine_config(self) -> RefineConfig:
+        """The :class:`RefineConfig` of this search: hip and knee flexion only."""
+        return RefineConfig(
+            enabled=True,
+            offsets=self.offsets,
+            levels=self.levels,
+            range_flexion_deg=self.range_deg,
+            range_leg_deg=0.0,
+            upper_body=False,
+            root=False,
+            top_k=1,
+            inject=False,
+        )
+
+
 class ArmSearchConfig(_Model):
     """Grid search of each arm after the filter (:mod:`tracker.arms`): shoulder flexion,
     abduction and rotation and elbow flexion around their current values, the rest held."""
@@ -1510,6 +1556,7 @@ class TrackerConfig(_Model):
     heading_check: HeadingCheckConfig = Field(default_factory=HeadingCheckConfig)
     leg_swap: LegSwapConfig = Field(default_factory=LegSwapConfig)
     refine: RefineConfig = Field(default_factory=RefineConfig)
+    leg_refine: LegRefineConfig = Field(default_factory=LegRefineConfig)
     arms: ArmSearchConfig = Field(default_factory=ArmSearchConfig)
     appearance: AppearanceConfig = Field(default_factory=AppearanceConfig)
     edges: EdgeConfig = Field(default_factory=EdgeConfig)

@@ -1290,6 +1290,7 @@ class Tracker:
         pose, weight = self._refine_origin(pose, weight, dt)
         if c.refine.enabled:
             pose, weight = self._refine_pose(pose, weight, dt)
+        pose, weight = self._refine_legs(pose, weight)
         self._update_seated(pose)
         return pose, weight
 
@@ -1547,6 +1548,27 @@ class Tracker:
         if self.config.refine.inject:
             self.filter.inject(res.pose[None], np.array([res.weight]))
         return res.pose.copy(), float(res.weight)
+
+    def _refine_legs(self, pose: np.ndarray, weight: float) -> tuple[np.ndarray, float]:
+        """The legs' flexion searched on the weight without the 2D key-point cue
+        (``leg_refine``); the estimate and its weight with every cue."""
+        lc = self.config.leg_refine
+        inner = self._lik.inner
+        cue = getattr(inner, "keypoints", None)
+        if not lc.enabled or len(self.cameras) < lc.min_cameras or cue is None:
+            return pose, weight
+        from tracker.refine import refine_pose
+
+        inner.keypoints = None
+        try:
+            w0 = float(self._lik.weights(pose[None])[0])
+            with _single_thread():
+                res = refine_pose(self._lik, pose, w0, lc.refine_config(), limits=self.limits)
+        finally:
+            inner.keypoints = cue
+        if not res.weight > w0:
+            return pose, weight
+        return res.pose.copy(), float(self._lik.weights(res.pose[None])[0])
 
     def _search_arms(self, pose: np.ndarray, weight: float) -> tuple[np.ndarray, float]:
         """Grid search of each arm (:mod:`tracker.arms`, ``arms``); joins the particles when
