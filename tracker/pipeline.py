@@ -418,6 +418,14 @@ class Tracker:
         #: come without key points; None when the cue is off, its detector is "none" or the
         #: detector cannot run here (a warning says so).
         self.detector = self._make_detector() if self.keypoint_cue is not None else None
+        #: The search of the legs' refinement on the silhouettes (config.leg_refine); None when
+        #: it does not run: off, too few cameras or no key-point cue to leave out.
+        lr = c.leg_refine
+        self._leg_refine = (
+            lr.refine_config()
+            if lr.enabled and len(self.cameras) >= lr.min_cameras and self.keypoint_cue is not None
+            else None
+        )
         if c.collision.enabled and hasattr(likelihood, "collision"):
             from tracker.collision import CollisionPrior
 
@@ -1552,20 +1560,17 @@ class Tracker:
     def _refine_legs(self, pose: np.ndarray, weight: float) -> tuple[np.ndarray, float]:
         """The legs' flexion searched on the weight without the 2D key-point cue
         (``leg_refine``); the estimate and its weight with every cue."""
-        lc = self.config.leg_refine
-        inner = self._lik.inner
-        cue = getattr(inner, "keypoints", None)
-        if not lc.enabled or len(self.cameras) < lc.min_cameras or cue is None:
+        if self._leg_refine is None:
             return pose, weight
         from tracker.refine import refine_pose
 
-        inner.keypoints = None
+        self.likelihood.keypoints = None
         try:
             w0 = float(self._lik.weights(pose[None])[0])
             with _single_thread():
-                res = refine_pose(self._lik, pose, w0, lc.refine_config(), limits=self.limits)
+                res = refine_pose(self._lik, pose, w0, self._leg_refine, limits=self.limits)
         finally:
-            inner.keypoints = cue
+            self.likelihood.keypoints = self.keypoint_cue
         if not res.weight > w0:
             return pose, weight
         return res.pose.copy(), float(self._lik.weights(res.pose[None])[0])
