@@ -658,6 +658,13 @@ class HeadingCheckConfig(_Model):
     flip is sustained: its candidates are refined and adopted at ``sustained_ratio`` (a track
     refined facing the wrong way outweighs fresh candidates facing the right way).
 
+    Face check (``facing_*``): when no walking direction is known (standing, stepping on the
+    spot, a walk slower than ``min_speed_m_s``), the 2D detector's face decides instead: seen
+    in profile, its nose lies ahead of its shoulders. When over ``facing_s`` the detections put
+    the face behind the estimate's heading, the heading is checked facing the other way: the
+    candidates are refined however light, as a sustained flip's, and adopted at
+    ``facing_ratio``. Not in the seated mode.
+
     Turn following (``turn_*``): when the heading is more than ``turn_angle_deg`` (and at most
     ``max_angle_deg``) off the walking direction of the silhouettes' floor points, the reduced
     initial search runs at headings around the walking direction (centred ``turn_lead_deg``
@@ -734,6 +741,58 @@ class HeadingCheckConfig(_Model):
             "candidate (the former behaviour)",
         ),
     ] = "feet"
+    facing_s: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=10,
+            description="Face check: when no walking direction is known (standing, stepping "
+            "on the spot, a slow walk), the 2D detector's nose against its shoulders, seen in "
+            "profile, tells the way the person faces (KeypointCue.facing). When over this "
+            "window (at least min_frames frames spanning 0.9 of it) the detections put the "
+            "face behind the estimate's heading, the heading is checked facing the other way: "
+            "the initial search's candidates refined, adopted at facing_ratio. Not in the "
+            "seated mode. 0: off",
+        ),
+    ] = 0.5
+    facing_min_profile: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="Face check: only cameras that see the body at least this much in "
+            "profile (|sin| of the angle between its facing direction and the line of sight)",
+        ),
+    ] = 0.5
+    facing_evidence: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="Face check: the mean evidence over the window must be below minus "
+            "this (the nose's offset along the facing direction, a fraction of the detected "
+            "person's height; about +0.03 to +0.08 when the heading is right)",
+        ),
+    ] = 0.02
+    facing_share: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="Face check: and at least this share of the window's frames must put "
+            "the face behind",
+        ),
+    ] = 0.8
+    facing_ratio: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=2,
+            description="Face check: the candidates facing the other way, refined "
+            "(redetect.refine_steps), are adopted when they weigh at least this fraction of "
+            "the estimate (the detections can mislead too)",
+        ),
+    ] = 0.85
     turn_angle_deg: Annotated[
         float,
         Field(

@@ -30,6 +30,9 @@ camera to ``Tracker.process(..., keypoints=...)``.
   typical) ** beta``, ``typical`` the running score of the estimates (``update``), so weights
   keep the IoU scale. The cue is inactive until the first estimate gives the typical score,
   and in a frame without detections.
+* **Facing** (:meth:`KeypointCue.facing`, :func:`facing_evidence`): the weight does not use
+  the detected nose, but the heading check does (``heading_check.facing_s``): seen in profile,
+  the nose lies ahead of the shoulders, which tells front from back where a silhouette cannot.
 """
 
 from __future__ import annotations
@@ -38,7 +41,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from gaitwatch.conventions import N_KEYPOINTS
+from gaitwatch.conventions import (
+    HEAD,
+    L_HIP,
+    L_SHOULDER,
+    N_KEYPOINTS,
+    NECK,
+    R_HIP,
+    R_SHOULDER,
+)
 from tracker.body import BodyModel
 from tracker.camera import Camera
 
@@ -81,6 +92,9 @@ class KeypointCue:
         #: Per camera None or, per part with a detected point, what the scores need
         #: (:meth:`_prepare`).
         self._prep: list[dict[str, tuple] | None] | None = None
+        #: Per camera None or the detected nose and shoulders with the person's height
+        #: (:func:`_face_points`), for :meth:`facing`; None without any.
+        self._face: list[np.ndarray | None] | None = None
 
     # -- the frame -------------------------------------------------------------------------
     def set_frame(self, detections: Sequence[np.ndarray | None] | None) -> None:
@@ -93,12 +107,14 @@ class KeypointCue:
                 f"expected key points for {len(self.cameras)} cameras, got {len(detections)}"
             )
         det: list[dict[str, np.ndarray] | None] = []
+        face: list[np.ndarray | None] = []
         sigma = np.zeros(len(self.cameras))
         tol = np.zeros(len(self.cameras))
         c = self.config
         for i, d in enumerate(detections):
             if d is None:
                 det.append(None)
+                face.append(None)
                 continue
             a = np.asarray(d, dtype=np.float64)
             if a.shape != (N_KEYPOINTS, 3):
@@ -107,19 +123,21 @@ class KeypointCue:
                 )
             ok = np.isfinite(a).all(axis=1) & (a[:, 2] >= c.min_confidence)
             uv = np.where(ok[:, None], a[:, :2], np.nan)
+            height = float(np.nanmax(uv[:, 1]) - np.nanmin(uv[:, 1])) if ok.sum() >= 2 else 0.0
+            face.append(_face_points(uv, height))
             parts = {p: np.stack([uv[list(lr)] for lr in PARTS[p]]) for p in self.parts}
             if ok.sum() < 2 or not any(np.isfinite(x).any() for x in parts.values()):
                 det.append(None)
                 continue
-            height = float(np.nanmax(uv[:, 1]) - np.nanmin(uv[:, 1]))
             sigma[i] = max(c.sigma_fraction * height, c.min_sigma_px)
             tol[i] = c.tolerance_fraction * height
             det.append(parts)
         if all(d is None for d in det):
             self.clear_frame()
-            return
-        self._det, self._sigma, self._tol = det, sigma, tol
-        self._prepare()
+        else:
+            self._det, self._sigma, self._tol = det, sigma, tol
+            self._prepare()
+        self._face = face if any(f is not None for f in face) else None
 
     def _prepare(self) -> None:
         """Per camera and part the detected kinds of point (either side), the model's point
@@ -146,6 +164,7 @@ class KeypointCue:
     def clear_frame(self) -> None:
         """No detections this frame: the cue does not score it."""
         self._det = self._sigma = self._tol = self._prep = None
+        self._face = None
 
     @property
     def has_frame(self) -> bool:
@@ -158,17 +177,43 @@ class KeypointCue:
 
     def frame_state(self) -> tuple | None:
         """This frame's detections, for :meth:`restore_frame` (the backward pass)."""
-        if self._det is None:
+        if self._det is None and self._face is None:
             return None
-        return list(self._det), self._sigma.copy(), self._tol.copy()
+        if self._det is None:
+            return None, None, None, self._face
+        return list(self._det), self._sigma.copy(), self._tol.copy(), self._face
 
     def restore_frame(self, state: tuple | None) -> None:
         """Set the frame kept by :meth:`frame_state` (None: no frame)."""
+        self.clear_frame()
         if state is None:
-            self.clear_frame()
-        else:
+            return
+        if state[0] is not None:
             self._det, self._sigma, self._tol = list(state[0]), state[1].copy(), state[2].copy()
             self._prepare()
+        self._face = state[3] if len(state) > 3 else None
+
+    # -- facing ----------------------------------------------------------------------------
+    def facing(self, joints: np.ndarray, min_profile: float) -> float | None:
+        """Whether this frame's detections show the face on the side the body ``joints``
+        (19, 3) face: the detected nose's offset from the detected shoulders' midpoint along the
+        image direction the body faces, as a fraction of the detected person's height,
+        averaged over the cameras that see the body at least ``min_profile`` in profile
+        (:func:`facing_evidence`) and weighted by how much. Positive: the detections agree;
+        negative: the body faces the other way. None: no camera tells (no frame, no nose or
+        shoulders detected, or every camera sees the body from the front or the back)."""
+        if self._face is None:
+            return None
+        total = weight = 0.0
+        for cam, face in zip(self.cameras, self._face, strict=True):
+            if face is None:
+                continue
+            ev = facing_evidence(cam, face, joints)
+            if ev is None or ev[1] < min_profile:
+                continue
+            total += ev[0] * ev[1]
+            weight += ev[1]
+        return total / weight if weight > 0 else None
 
     # -- scores ----------------------------------------------------------------------------
     def _side_sums(
@@ -271,4 +316,67 @@ class KeypointCue:
         self.typical = s if self.typical is None else self.typical + r * (s - self.typical)
 
 
-__all__ = ["LEFT_POINTS", "PARTS", "RIGHT_POINTS", "KeypointCue"]
+def _face_points(uv: np.ndarray, height: float) -> np.ndarray | None:
+    """The detected nose and shoulders of one camera ``(3, 2)`` pixels, with the detected
+    person's height appended as a fourth row ``(height, 0)``; None unless all three were found
+    (``uv`` (19, 2), NaN where missing) and the height is positive."""
+    pts = uv[[HEAD, L_SHOULDER, R_SHOULDER]]
+    if not (np.isfinite(pts).all() and height > 0):
+        return None
+    return np.vstack([pts, [height, 0.0]])
+
+
+def facing_evidence(
+    camera: Camera, face: np.ndarray, joints: np.ndarray
+) -> tuple[float, float] | None:
+    """How one camera's detected face agrees with the way a body faces.
+
+    A silhouette looks alike from the front and from the back; the detector sees the face. The
+    body's facing direction is the horizontal perpendicular of its shoulders' and hips'
+    left-to-right direction (from ``joints`` (19, 3), world metres, z up). At the neck it is
+    projected into the camera, its component along the image's projected vertical removed:
+    the image direction the face should lie in from the shoulders. The evidence is the
+    detected nose's offset from the detected shoulders' midpoint along it, as a fraction of the
+    detected person's height (``face``: nose, left and right shoulder pixels and the height, as
+    :func:`_face_points` keeps them). Seen in profile, the nose lies a few hundredths of the
+    height ahead of the shoulders; from the front or the back the facing direction points
+    along the line of sight and the image shows nothing of it.
+
+    Returns
+    -------
+    (evidence, profile) or None
+        ``evidence`` positive when the face is where the body faces; ``profile`` = |sin| of
+        the horizontal angle between the facing direction and the camera's line of sight to
+        the neck (1 in profile, 0 seen from the front or back). None for a degenerate body or
+        a neck behind the camera.
+    """
+    j = np.asarray(joints, dtype=np.float64)
+    lr = (j[L_SHOULDER] - j[R_SHOULDER]) + (j[L_HIP] - j[R_HIP])
+    lr[2] = 0.0
+    n = float(np.hypot(lr[0], lr[1]))
+    if not np.isfinite(n) or n < 1e-6:
+        return None
+    fwd = np.array([lr[1], -lr[0], 0.0]) / n  # left x up: the way the body faces
+    neck = j[NECK]
+    sight = neck - camera.center
+    sight[2] = 0.0
+    s = float(np.hypot(sight[0], sight[1]))
+    if s < 1e-6 or float(camera.depth(neck[None])[0]) <= 0:
+        return None
+    profile = abs(fwd[0] * sight[1] - fwd[1] * sight[0]) / s
+    p = camera.project(np.stack([neck, neck + 0.3 * fwd, neck + np.array([0.0, 0.0, 0.3])]))
+    ahead, up = p[1] - p[0], p[2] - p[0]
+    nu = float(np.hypot(*up))
+    if nu < 1e-9:
+        return None
+    up /= nu
+    ahead = ahead - float(ahead @ up) * up
+    na = float(np.hypot(*ahead))
+    if na < 1e-9:
+        return None
+    nose, left, right, (height, _) = face
+    offset = nose - 0.5 * (left + right)
+    return float(offset @ ahead) / (na * height), float(profile)
+
+
+__all__ = ["LEFT_POINTS", "PARTS", "RIGHT_POINTS", "KeypointCue", "facing_evidence"]
