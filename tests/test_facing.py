@@ -28,8 +28,8 @@ def _face_detections(body: BodyModel, pose: np.ndarray, cameras) -> list[np.ndar
 
 
 def _face(det: np.ndarray) -> np.ndarray:
-    height = float(np.ptp(det[:, 1]))
-    return np.vstack([det[[HEAD, 3, 4], :2], [height, 0.0]])
+    """The nose and shoulders in units of the detected height (as the cue keeps them)."""
+    return det[[HEAD, 3, 4], :2] / float(np.ptp(det[:, 1]))
 
 
 @pytest.fixture(scope="module")

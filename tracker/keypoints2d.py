@@ -92,7 +92,7 @@ class KeypointCue:
         #: Per camera None or, per part with a detected point, what the scores need
         #: (:meth:`_prepare`).
         self._prep: list[dict[str, tuple] | None] | None = None
-        #: Per camera None or the detected nose and shoulders with the person's height
+        #: Per camera None or the detected nose and shoulders in units of the person's height
         #: (:func:`_face_points`), for :meth:`facing`; None without any.
         self._face: list[np.ndarray | None] | None = None
 
@@ -317,13 +317,13 @@ class KeypointCue:
 
 
 def _face_points(uv: np.ndarray, height: float) -> np.ndarray | None:
-    """The detected nose and shoulders of one camera ``(3, 2)`` pixels, with the detected
-    person's height appended as a fourth row ``(height, 0)``; None unless all three were found
-    (``uv`` (19, 2), NaN where missing) and the height is positive."""
+    """The detected nose, left and right shoulder of one camera ``(3, 2)``, in units of the
+    detected person's height in the image (pixels / ``height``); None unless all three were
+    found (``uv`` (19, 2) pixels, NaN where missing) and the height is positive."""
     pts = uv[[HEAD, L_SHOULDER, R_SHOULDER]]
     if not (np.isfinite(pts).all() and height > 0):
         return None
-    return np.vstack([pts, [height, 0.0]])
+    return pts / height
 
 
 def facing_evidence(
@@ -337,10 +337,10 @@ def facing_evidence(
     projected into the camera, its component along the image's projected vertical removed:
     the image direction the face should lie in from the shoulders. The evidence is the
     detected nose's offset from the detected shoulders' midpoint along it, as a fraction of the
-    detected person's height (``face``: nose, left and right shoulder pixels and the height, as
-    :func:`_face_points` keeps them). Seen in profile, the nose lies a few hundredths of the
-    height ahead of the shoulders; from the front or the back the facing direction points
-    along the line of sight and the image shows nothing of it.
+    detected person's height (``face``: nose, left and right shoulder in image pixels divided
+    by that height, as :func:`_face_points` keeps them). Seen in profile, the nose lies a few
+    hundredths of the height ahead of the shoulders; from the front or the back the facing
+    direction points along the line of sight and the image shows nothing of it.
 
     Returns
     -------
@@ -374,9 +374,8 @@ def facing_evidence(
     na = float(np.hypot(*ahead))
     if na < 1e-9:
         return None
-    nose, left, right, (height, _) = face
-    offset = nose - 0.5 * (left + right)
-    return float(offset @ ahead) / (na * height), float(profile)
+    nose, left, right = face
+    return float((nose - 0.5 * (left + right)) @ ahead) / na, float(profile)
 
 
 __all__ = ["LEFT_POINTS", "PARTS", "RIGHT_POINTS", "KeypointCue", "facing_evidence"]
