@@ -1284,6 +1284,23 @@ class KeypointConfig(_Model):
         Field(ge=0, le=1, description="Below this presence score the detector found nobody"),
     ] = 0.5
     threads: Annotated[int, Field(ge=1, le=64, description="The detector's threads")] = 1
+    mirror: Annotated[
+        bool,
+        Field(
+            description="Run the built-in detector also on each frame mirrored and average "
+            "its key points with the frame's (twice the detector's time), with at least "
+            "mirror_min_cameras cameras",
+        ),
+    ] = True
+    mirror_min_cameras: Annotated[
+        int,
+        Field(
+            ge=1,
+            le=16,
+            description="The mirrored detection only with this many cameras or more (through "
+            "one camera it cost accuracy)",
+        ),
+    ] = 2
     beta: Annotated[
         float, Field(gt=0, le=20, description="Exponent of the key-point factor (its strength)")
     ] = 1.0

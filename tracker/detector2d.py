@@ -50,6 +50,13 @@ TO_BLAZEPOSE: dict[int, int] = {
 }  # fmt: skip
 _OURS = np.array(list(TO_BLAZEPOSE))
 _THEIRS = np.array(list(TO_BLAZEPOSE.values()))
+#: BlazePose's landmark order with the sides exchanged (the landmarks of a mirrored image).
+_MIRROR = np.arange(N_LANDMARKS)
+for _a, _b in ((1, 4), (2, 5), (3, 6), (7, 8), (9, 10), *((i, i + 1) for i in range(11, 33, 2))):
+    _MIRROR[[_a, _b]] = _MIRROR[[_b, _a]]
+#: CONVENTIONS left/right key-point pairs (shoulders to toes).
+_PAIRS = ((3, 4), (5, 6), (7, 8), (9, 10), (11, 12), (13, 14), (15, 16), (17, 18))
+_LEG_PAIRS = _PAIRS[4:]
 
 
 class DetectorUnavailableError(RuntimeError):
@@ -120,6 +127,10 @@ class PoseDetector:
         The interpreter's threads.
     model_path : path, optional
         The ``.tflite`` file (default :data:`MODEL_PATH`).
+    mirror : bool
+        Also run the model on the frame mirrored (the crop mirrored with it) and average the
+        two sets of key points (:meth:`_with_mirrored`): one more inference per camera and
+        frame. The crop followed to the next frame stays the first inference's.
     """
 
     def __init__(
@@ -128,6 +139,7 @@ class PoseDetector:
         min_presence: float = 0.5,
         threads: int = 1,
         model_path: str | Path | None = None,
+        mirror: bool = False,
     ) -> None:
         if not crop_scale > 0:
             raise ValueError(f"crop_scale must be > 0, not {crop_scale}")
@@ -138,6 +150,7 @@ class PoseDetector:
         self.crop_scale = float(crop_scale)
         self.min_presence = float(min_presence)
         self.threads = int(threads)
+        self.mirror = bool(mirror)
         self.model_path = Path(model_path) if model_path is not None else MODEL_PATH
         self._interp = None
         self._io: tuple[int, int, int] | None = None
@@ -266,7 +279,42 @@ class PoseDetector:
         uv, vis, presence = self.landmarks(image_bgr, crop)
         if presence < self.min_presence:
             return None
-        return self._keypoints(uv, vis), alignment_crop(uv)
+        kp = self._keypoints(uv, vis)
+        if self.mirror:
+            kp = self._with_mirrored(kp, image_bgr, crop)
+        return kp, alignment_crop(uv)
+
+    def _with_mirrored(self, kp: np.ndarray, image_bgr: np.ndarray, crop) -> np.ndarray:
+        """``kp`` averaged with the key points the model finds on the mirrored frame (the same
+        crop mirrored), mapped back and their sides matched to ``kp``'s: all exchanged or none,
+        whichever puts the legs' points nearer ``kp``'s. A point missing from either stays
+        ``kp``'s; the confidence is the lower of the two. ``kp`` when the mirrored crop shows
+        nobody."""
+        img = np.ascontiguousarray(np.asarray(image_bgr)[:, ::-1])
+        w = img.shape[1]
+        cu, cv, side, angle = crop
+        uv, vis, presence = self.landmarks(img, (w - 1 - cu, cv, side, -angle))
+        if presence < self.min_presence:
+            return kp
+        uv, vis = uv[_MIRROR], vis[_MIRROR]
+        uv[:, 0] = w - 1 - uv[:, 0]
+        other = self._keypoints(uv, vis)
+
+        def legs_cost(b: np.ndarray) -> float:
+            d = [np.linalg.norm(b[i, :2] - kp[i, :2]) for pair in _LEG_PAIRS for i in pair]
+            d = [x for x in d if np.isfinite(x)]
+            return float(np.mean(d)) if d else np.inf
+
+        swapped = other.copy()
+        for a, b in _PAIRS:
+            swapped[[a, b]] = other[[b, a]]
+        if legs_cost(swapped) < legs_cost(other):
+            other = swapped
+        out = kp.copy()
+        both = np.isfinite(kp[:, :2]).all(axis=1) & np.isfinite(other[:, :2]).all(axis=1)
+        out[both, :2] = 0.5 * (kp[both, :2] + other[both, :2])
+        out[both, 2] = np.minimum(kp[both, 2], other[both, 2])
+        return out
 
     def reset(self) -> None:
         """Forget the crops followed from frame to frame (:meth:`detect_frames`)."""
@@ -324,14 +372,18 @@ def _inside(crop: tuple[float, float, float, float], box: tuple) -> bool:
     return bool(max(abs(du), abs(dv)) < 0.25 * side and side >= max(w, h))
 
 
-def make_detector(config) -> PoseDetector | None:
-    """The detector of a :class:`tracker.config.KeypointConfig` (None when the cue is off or
-    its ``detector`` is ``"none"``). Raises :class:`DetectorUnavailableError` when it cannot
-    run."""
+def make_detector(config, n_cameras: int = 1) -> PoseDetector | None:
+    """The detector of a :class:`tracker.config.KeypointConfig` for a tracker with
+    ``n_cameras`` cameras (None when the cue is off or its ``detector`` is ``"none"``; the
+    mirrored inference with ``mirror`` and at least ``mirror_min_cameras`` cameras). Raises
+    :class:`DetectorUnavailableError` when it cannot run."""
     if not config.enabled or config.detector == "none":
         return None
     det = PoseDetector(
-        crop_scale=config.crop_scale, min_presence=config.min_presence, threads=config.threads
+        crop_scale=config.crop_scale,
+        min_presence=config.min_presence,
+        threads=config.threads,
+        mirror=config.mirror and n_cameras >= config.mirror_min_cameras,
     )
     det.load()
     return det

@@ -668,7 +668,7 @@ class Tracker:
         from tracker.detector2d import DetectorUnavailableError, make_detector
 
         try:
-            return make_detector(self.config.keypoints)
+            return make_detector(self.config.keypoints, len(self.cameras))
         except DetectorUnavailableError as err:
             log.warning("%s: the 2D key-point cue scores only key points given to process()", err)
             return None
