@@ -19,7 +19,12 @@ need NumPy < 2 and an OpenCV build of their own.
   v, visibility)`` in the frame's pixels (:data:`TO_BLAZEPOSE`: the head is BlazePose's nose,
   the toes its foot index points; neck and sacrum are NaN, BlazePose has none), or None when
   the model's presence score is below ``min_presence`` or there is no silhouette.
-* **Cost**: one inference per camera and frame, about 17-22 ms on one core of this machine.
+* **The frame mirrored** (``mirror``; the tracker turns it on with two cameras or more): the
+  model also runs on the frame mirrored left to right and the two sets of key points are
+  averaged, their sides matched (:meth:`PoseDetector._with_mirrored`): the network's errors on
+  an image and on its mirror are partly independent.
+* **Cost**: one inference per camera and frame (two with ``mirror``), about 17-22 ms each on
+  one core of this machine.
 
 The model is loaded once per :class:`PoseDetector` (the first :meth:`~PoseDetector.detect`); an
 interpreter is not shared between threads.
