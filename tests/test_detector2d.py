@@ -204,13 +204,13 @@ def test_the_mirrored_detection_averages_the_frame_and_its_mirror(detector, side
     assert np.median(errs["mirror"]) < 0.06 and max(errs["mirror"]) < 0.15
 
 
-def test_the_mirrored_detection_needs_two_cameras_by_default() -> None:
-    cfg = KeypointConfig()
-    assert cfg.mirror and cfg.mirror_min_cameras == 2
+def test_the_mirrored_detection_is_opt_in_and_needs_two_cameras() -> None:
+    assert not KeypointConfig().mirror and KeypointConfig().mirror_min_cameras == 2
+    assert not make_detector(KeypointConfig(), 2).mirror
+    cfg = KeypointConfig(mirror=True)
     assert not make_detector(cfg, 1).mirror
     assert make_detector(cfg, 2).mirror
-    assert not make_detector(KeypointConfig(mirror=False), 3).mirror
-    assert make_detector(KeypointConfig(mirror_min_cameras=1), 1).mirror
+    assert make_detector(KeypointConfig(mirror=True, mirror_min_cameras=1), 1).mirror
     with pytest.raises(ValidationError):
         KeypointConfig(mirror_min_cameras=0)
     from tracker.pipeline import Tracker
@@ -218,7 +218,8 @@ def test_the_mirrored_detection_needs_two_cameras_by_default() -> None:
 
     for n, on in ((1, False), (2, True)):
         cams = side_cameras(n, image_size=(160, 120), centre=(1.0, 0.0), fps=20.0)
-        tr = Tracker(cams, TrackerConfig(), rng=np.random.default_rng(0), height_m=1.70)
+        cfg = TrackerConfig.model_validate({"keypoints": {"mirror": True}})
+        tr = Tracker(cams, cfg, rng=np.random.default_rng(0), height_m=1.70)
         assert tr.detector is not None and tr.detector.mirror is on
 
 

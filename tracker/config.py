@@ -1289,9 +1289,9 @@ class KeypointConfig(_Model):
         Field(
             description="Run the built-in detector also on each frame mirrored and average "
             "its key points with the frame's (twice the detector's time), with at least "
-            "mirror_min_cameras cameras",
+            'mirror_min_cameras cameras (opt-in: docs/tracker.md, "Session 40")',
         ),
-    ] = True
+    ] = False
     mirror_min_cameras: Annotated[
         int,
         Field(

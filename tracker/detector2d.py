@@ -19,7 +19,7 @@ need NumPy < 2 and an OpenCV build of their own.
   v, visibility)`` in the frame's pixels (:data:`TO_BLAZEPOSE`: the head is BlazePose's nose,
   the toes its foot index points; neck and sacrum are NaN, BlazePose has none), or None when
   the model's presence score is below ``min_presence`` or there is no silhouette.
-* **The frame mirrored** (``mirror``; the tracker turns it on with two cameras or more): the
+* **The frame mirrored** (``mirror``; opt-in, the tracker uses it with two cameras or more): the
   model also runs on the frame mirrored left to right and the two sets of key points are
   averaged, their sides matched (:meth:`PoseDetector._with_mirrored`): the network's errors on
   an image and on its mirror are partly independent.
