@@ -38,6 +38,15 @@ HEAD, NECK, SACRUM = 0, 1, 2
 L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST = 3, 4, 5, 6, 7, 8
 L_HIP, R_HIP, L_KNEE, R_KNEE, L_ANKLE, R_ANKLE = 9, 10, 11, 12, 13, 14
 L_HEEL, R_HEEL, L_TOE, R_TOE = 15, 16, 17, 18
+#: The key-point order with every left point exchanged for its right one (a mirrored person).
+SIDES_EXCHANGED: Final[tuple[int, ...]] = tuple(
+    KP[n.replace("left_", "right_")]
+    if n.startswith("left_")
+    else KP[n.replace("right_", "left_")]
+    if n.startswith("right_")
+    else i
+    for i, n in enumerate(KEYPOINTS)
+)
 
 # The skeleton's 18 bones as (parent, child) key-point pairs: the tree that joins the 19 key points,
 # rooted at the sacrum. For drawing and for bone-length checks; the body model

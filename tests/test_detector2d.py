@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
+from gaitwatch.conventions import SIDES_EXCHANGED
 from gaitwatch.sim.motion import procedural_walk
 from gaitwatch.sim.synth import SceneConfig, build_scene, render_background, render_frames
 from tracker.config import KeypointConfig, TrackerConfig
@@ -162,8 +163,7 @@ def test_bad_frames_and_settings_are_refused(detector, side_walk, tmp_path) -> N
     assert make_detector(KeypointConfig(enabled=False)) is None
 
 
-#: CONVENTIONS key points with the sides exchanged (shoulders to toes).
-MIRRORED = [0, 1, 2, 4, 3, 6, 5, 8, 7, 10, 9, 12, 11, 14, 13, 16, 15, 18, 17]
+MIRRORED = list(SIDES_EXCHANGED)
 
 
 def test_the_mirrored_detection_averages_the_frame_and_its_mirror(detector, side_walk) -> None:

@@ -38,7 +38,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from gaitwatch.conventions import N_KEYPOINTS
+from gaitwatch.conventions import N_KEYPOINTS, SIDES_EXCHANGED
 
 #: The model file shipped with the package.
 MODEL_PATH = Path(__file__).parent / "models" / "pose_landmark_full.tflite"
@@ -59,9 +59,8 @@ _THEIRS = np.array(list(TO_BLAZEPOSE.values()))
 _MIRROR = np.arange(N_LANDMARKS)
 for _a, _b in ((1, 4), (2, 5), (3, 6), (7, 8), (9, 10), *((i, i + 1) for i in range(11, 33, 2))):
     _MIRROR[[_a, _b]] = _MIRROR[[_b, _a]]
-#: CONVENTIONS left/right key-point pairs (shoulders to toes).
-_PAIRS = ((3, 4), (5, 6), (7, 8), (9, 10), (11, 12), (13, 14), (15, 16), (17, 18))
-_LEG_PAIRS = _PAIRS[4:]
+#: The legs' key points (knees, ankles, heels, toes) that match the mirrored detection's sides.
+_LEGS = [11, 12, 13, 14, 15, 16, 17, 18]
 
 
 class DetectorUnavailableError(RuntimeError):
@@ -306,13 +305,11 @@ class PoseDetector:
         other = self._keypoints(uv, vis)
 
         def legs_cost(b: np.ndarray) -> float:
-            d = [np.linalg.norm(b[i, :2] - kp[i, :2]) for pair in _LEG_PAIRS for i in pair]
-            d = [x for x in d if np.isfinite(x)]
-            return float(np.mean(d)) if d else np.inf
+            d = np.linalg.norm(b[_LEGS, :2] - kp[_LEGS, :2], axis=1)
+            d = d[np.isfinite(d)]
+            return float(d.mean()) if len(d) else np.inf
 
-        swapped = other.copy()
-        for a, b in _PAIRS:
-            swapped[[a, b]] = other[[b, a]]
+        swapped = other[list(SIDES_EXCHANGED)]
         if legs_cost(swapped) < legs_cost(other):
             other = swapped
         out = kp.copy()
