@@ -16,6 +16,7 @@ from gaitwatch.sim.motion import procedural_walk
 from gaitwatch.sim.synth import SceneConfig, build_scene, render_background, render_frames
 from tracker.config import KeypointConfig, TrackerConfig
 from tracker.detector2d import (
+    _MIRROR,
     INPUT_SIZE,
     TO_BLAZEPOSE,
     DetectorUnavailableError,
@@ -29,6 +30,8 @@ from tracker.detector2d import (
 from tracker.segmentation import Blob
 
 LEGS = [11, 12, 13, 14, 15, 16, 17, 18]
+HIPS = [9, 10]
+ARMS = [3, 4, 5, 6, 7, 8]  # shoulders, elbows, wrists
 EXCHANGED = [12, 11, 14, 13, 16, 15, 18, 17]
 
 
@@ -184,12 +187,15 @@ def test_the_mirrored_detection_averages_the_frame_and_its_mirror(detector, side
         assert plain is not None and back is not None
         back[:, 0] = w - 1 - back[:, 0]
         back = back[MIRRORED]  # the mirror's left is the person's right
-        legs = np.array(LEGS)
-        if (
-            np.linalg.norm(back[EXCHANGED, :2] - plain[legs, :2], axis=1).mean()
-            < np.linalg.norm(back[legs, :2] - plain[legs, :2], axis=1).mean()
-        ):
-            back = back[MIRRORED]
+        # each part's sides matched on its own: the legs with the hips, the arms with the
+        # shoulders
+        for part, decide in ((HIPS + LEGS, LEGS), (ARMS, ARMS)):
+            swapped = [MIRRORED[i] for i in decide]
+            if (
+                np.linalg.norm(back[swapped, :2] - plain[decide, :2], axis=1).mean()
+                < np.linalg.norm(back[decide, :2] - plain[decide, :2], axis=1).mean()
+            ):
+                back[part] = back[[MIRRORED[i] for i in part]]
         got = mirrored.detect(frame, box)
         np.testing.assert_allclose(got[mapped, :2], 0.5 * (plain[mapped, :2] + back[mapped, :2]))
         np.testing.assert_allclose(got[mapped, 2], np.minimum(plain[mapped, 2], back[mapped, 2]))
@@ -202,6 +208,39 @@ def test_the_mirrored_detection_averages_the_frame_and_its_mirror(detector, side
     # measured on these 10 frames: median 4.2 -> 4.4 % of the height, mean 5.1 -> 4.9 %, at
     # most 12.0 -> 9.8 % (on the benchmark's footage median 3.6 -> 3.4 %, p90 8.4 -> 7.4 %)
     assert np.median(errs["mirror"]) < 0.06 and max(errs["mirror"]) < 0.15
+
+
+@pytest.mark.parametrize("exchanged", ["legs", "arms", "both", "none"])
+def test_the_mirrored_detection_matches_the_legs_and_the_arms_each_on_its_own(
+    monkeypatch, exchanged
+) -> None:
+    """The model may label a person's legs and arms differently: the mirror's sides are
+    matched part by part (the legs with the hips, the arms with the shoulders), so a part's
+    points are averaged with the same side of the person whichever way the other part went."""
+    rng = np.random.default_rng(3)
+    w = 640
+    uv = rng.uniform(50.0, 450.0, (39, 2))
+    vis = np.full(39, 0.9)
+    plain = PoseDetector._keypoints(uv, vis)
+    # what the model finds on the mirrored frame, back in the frame: 2 px off, with the legs'
+    # (hips, knees, ankles, heels, foot index) and/or the arms' landmark sides exchanged
+    found = uv + 2.0
+    pairs = {"legs": range(23, 33, 2), "arms": range(11, 17, 2)}
+    for part in ("legs", "arms"):
+        if exchanged in (part, "both"):
+            for a in pairs[part]:
+                found[[a, a + 1]] = found[[a + 1, a]]
+    raw = found.copy()
+    raw[:, 0] = w - 1 - raw[:, 0]  # as the model sees the mirrored frame
+    raw = raw[_MIRROR]
+    detector = PoseDetector(mirror=True)
+    monkeypatch.setattr(detector, "landmarks", lambda image, crop: (raw, vis, 1.0))
+    got = detector._with_mirrored(
+        plain, np.zeros((480, w, 3), np.uint8), (300.0, 240.0, 400.0, 0.0)
+    )
+    mapped = sorted(TO_BLAZEPOSE)
+    np.testing.assert_allclose(got[mapped, :2], plain[mapped, :2] + 1.0)
+    np.testing.assert_allclose(got[mapped, 2], 0.9)
 
 
 def test_the_mirrored_detection_is_opt_in_and_needs_two_cameras() -> None:

@@ -21,8 +21,9 @@ need NumPy < 2 and an OpenCV build of their own.
   the model's presence score is below ``min_presence`` or there is no silhouette.
 * **The frame mirrored** (``mirror``; opt-in, the tracker uses it with two cameras or more): the
   model also runs on the frame mirrored left to right and the two sets of key points are
-  averaged, their sides matched (:meth:`PoseDetector._with_mirrored`): the network's errors on
-  an image and on its mirror are partly independent.
+  averaged, their sides matched part by part, legs and arms each on its own
+  (:meth:`PoseDetector._with_mirrored`): the network's errors on an image and on its mirror
+  are partly independent.
 * **Cost**: one inference per camera and frame (two with ``mirror``), about 17-22 ms each on
   one core of this machine.
 
@@ -59,8 +60,21 @@ _THEIRS = np.array(list(TO_BLAZEPOSE.values()))
 _MIRROR = np.arange(N_LANDMARKS)
 for _a, _b in ((1, 4), (2, 5), (3, 6), (7, 8), (9, 10), *((i, i + 1) for i in range(11, 33, 2))):
     _MIRROR[[_a, _b]] = _MIRROR[[_b, _a]]
-#: The legs' key points (knees, ankles, heels, toes) that match the mirrored detection's sides.
-_LEGS = [11, 12, 13, 14, 15, 16, 17, 18]
+#: The parts whose sides the mirrored detection matches each on its own: (the points exchanged
+#: together, the points that decide). The legs with the hips, decided by the knees, ankles,
+#: heels and toes; the arms with the shoulders, decided by the shoulders, elbows and wrists.
+_MIRROR_PARTS: tuple[tuple[list[int], list[int]], ...] = (
+    ([9, 10, 11, 12, 13, 14, 15, 16, 17, 18], [11, 12, 13, 14, 15, 16, 17, 18]),
+    ([3, 4, 5, 6, 7, 8], [3, 4, 5, 6, 7, 8]),
+)
+
+
+def _mean_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Mean image distance between the points of two key-point sets ``(n, >= 2)`` that both
+    have (infinity when none)."""
+    d = np.linalg.norm(a[:, :2] - b[:, :2], axis=1)
+    d = d[np.isfinite(d)]
+    return float(d.mean()) if len(d) else np.inf
 
 
 class DetectorUnavailableError(RuntimeError):
@@ -290,8 +304,10 @@ class PoseDetector:
 
     def _with_mirrored(self, kp: np.ndarray, image_bgr: np.ndarray, crop) -> np.ndarray:
         """``kp`` averaged with the key points the model finds on the mirrored frame (the same
-        crop mirrored), mapped back and their sides matched to ``kp``'s: all exchanged or none,
-        whichever puts the legs' points nearer ``kp``'s. A point missing from either stays
+        crop mirrored), mapped back and their sides matched to ``kp``'s part by part: the legs
+        (with the hips) exchanged or not, whichever puts the legs' points nearer ``kp``'s, and
+        the arms (with the shoulders) likewise on their own, since the model may label a
+        person's arms and legs differently. A point missing from either stays
         ``kp``'s; the confidence is the lower of the two. ``kp`` when the mirrored crop shows
         nobody."""
         img = np.ascontiguousarray(np.asarray(image_bgr)[:, ::-1])
@@ -303,15 +319,12 @@ class PoseDetector:
         uv, vis = uv[_MIRROR], vis[_MIRROR]
         uv[:, 0] = w - 1 - uv[:, 0]
         other = self._keypoints(uv, vis)
-
-        def legs_cost(b: np.ndarray) -> float:
-            d = np.linalg.norm(b[_LEGS, :2] - kp[_LEGS, :2], axis=1)
-            d = d[np.isfinite(d)]
-            return float(d.mean()) if len(d) else np.inf
-
-        swapped = other[list(SIDES_EXCHANGED)]
-        if legs_cost(swapped) < legs_cost(other):
-            other = swapped
+        exchanged = other[list(SIDES_EXCHANGED)]
+        for part, decide in _MIRROR_PARTS:
+            if _mean_distance(exchanged[decide], kp[decide]) < _mean_distance(
+                other[decide], kp[decide]
+            ):
+                other[part] = exchanged[part]
         out = kp.copy()
         both = np.isfinite(kp[:, :2]).all(axis=1) & np.isfinite(other[:, :2]).all(axis=1)
         out[both, :2] = 0.5 * (kp[both, :2] + other[both, :2])
