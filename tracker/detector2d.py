@@ -39,7 +39,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from gaitwatch.conventions import N_KEYPOINTS, SIDES_EXCHANGED
+from gaitwatch.conventions import KP, N_KEYPOINTS, SIDES, SIDES_EXCHANGED
 
 #: The model file shipped with the package.
 MODEL_PATH = Path(__file__).parent / "models" / "pose_landmark_full.tflite"
@@ -63,9 +63,11 @@ for _a, _b in ((1, 4), (2, 5), (3, 6), (7, 8), (9, 10), *((i, i + 1) for i in ra
 #: The parts whose sides the mirrored detection matches each on its own: (the points exchanged
 #: together, the points that decide). The legs with the hips, decided by the knees, ankles,
 #: heels and toes; the arms with the shoulders, decided by the shoulders, elbows and wrists.
+_LEG_POINTS = [KP[f"{s}_{n}"] for n in ("knee", "ankle", "heel", "toe") for s in SIDES]
+_ARM_POINTS = [KP[f"{s}_{n}"] for n in ("shoulder", "elbow", "wrist") for s in SIDES]
 _MIRROR_PARTS: tuple[tuple[list[int], list[int]], ...] = (
-    ([9, 10, 11, 12, 13, 14, 15, 16, 17, 18], [11, 12, 13, 14, 15, 16, 17, 18]),
-    ([3, 4, 5, 6, 7, 8], [3, 4, 5, 6, 7, 8]),
+    ([KP["left_hip"], KP["right_hip"], *_LEG_POINTS], _LEG_POINTS),
+    (_ARM_POINTS, _ARM_POINTS),
 )
 
 
