@@ -1284,6 +1284,13 @@ class KeypointConfig(_Model):
         Field(ge=0, le=1, description="Below this presence score the detector found nobody"),
     ] = 0.5
     threads: Annotated[int, Field(ge=1, le=64, description="The detector's threads")] = 1
+    heatmap_refine: Annotated[
+        bool,
+        Field(
+            description="Move the built-in detector's landmarks to their heatmaps' local "
+            'centre, as MediaPipe\'s pose pipeline does (docs/tracker.md, "Session 42")',
+        ),
+    ] = True
     mirror: Annotated[
         bool,
         Field(

@@ -87,6 +87,48 @@ def _sigmoid(x: np.ndarray) -> np.ndarray:
     return 1.0 / (1.0 + np.exp(-np.clip(x, -60.0, 60.0)))
 
 
+def refine_from_heatmap(
+    points: np.ndarray, heatmap: np.ndarray, kernel: int = 7, min_confidence: float = 0.5
+) -> np.ndarray:
+    """The landmarks ``(n, 2)`` (the model's input pixels) moved to their heatmaps' local centre,
+    as MediaPipe's pose pipeline does (``RefineLandmarksFromHeatmapCalculator``, kernel 7, 0.5):
+    each landmark becomes the mean of the heatmap's cells in the ``kernel`` x ``kernel`` window
+    around it (the window cut at the map's edges), weighted by their sigmoid confidence, when the
+    window's highest confidence is at least ``min_confidence``. A cell's column ``c`` maps to
+    ``c * INPUT_SIZE / width`` input pixels, as MediaPipe maps it. ``heatmap`` ``(height, width,
+    n)`` holds the logits; a landmark's cell is its position truncated towards zero, as in
+    MediaPipe; landmarks outside the map stay as they are."""
+    pts = np.array(points, dtype=np.float64)
+    h, w, n = heatmap.shape
+    if pts.shape != (n, 2):
+        raise ValueError(f"{pts.shape[0]} landmarks for a heatmap of {n}")
+    with np.errstate(invalid="ignore"):
+        col = np.trunc(pts[:, 0] * (w / INPUT_SIZE))
+        row = np.trunc(pts[:, 1] * (h / INPUT_SIZE))
+    inside = (col >= 0) & (col < w) & (row >= 0) & (row < h)  # NaN is outside
+    idx = np.flatnonzero(inside)
+    if not len(idx):
+        return pts
+    half = (kernel - 1) // 2
+    off = np.arange(-half, half + 1)
+    cols = col[idx, None].astype(int) + off  # (m, k)
+    rows = row[idx, None].astype(int) + off
+    cin = (cols >= 0) & (cols < w)
+    rin = (rows >= 0) & (rows < h)
+    vals = heatmap[
+        np.clip(rows, 0, h - 1)[:, :, None], np.clip(cols, 0, w - 1)[:, None, :], idx[:, None, None]
+    ]  # (m, k, k)
+    conf = _sigmoid(vals.astype(np.float64)) * (rin[:, :, None] & cin[:, None, :])
+    total = conf.sum(axis=(1, 2))
+    ok = (conf.max(axis=(1, 2)) >= min_confidence) & (total > 0)
+    cu = (conf * cols[:, None, :]).sum(axis=(1, 2)) / np.where(ok, total, 1.0)
+    cv = (conf * rows[:, :, None]).sum(axis=(1, 2)) / np.where(ok, total, 1.0)
+    done = idx[ok]
+    pts[done, 0] = cu[ok] * (INPUT_SIZE / w)
+    pts[done, 1] = cv[ok] * (INPUT_SIZE / h)
+    return pts
+
+
 def crop_box(box: tuple[float, float, float, float], scale: float) -> tuple[float, float, float]:
     """The square crop ``(centre u, centre v, side)`` around a bounding box ``(x, y, width,
     height)`` in pixels: centred on it, ``scale`` times its longer side."""
@@ -147,6 +189,9 @@ class PoseDetector:
         The interpreter's threads.
     model_path : path, optional
         The ``.tflite`` file (default :data:`MODEL_PATH`).
+    refine : bool
+        Move each landmark to its heatmap's local centre, as MediaPipe's pose pipeline does
+        (:func:`refine_from_heatmap`).
     mirror : bool
         Also run the model on the frame mirrored (the crop mirrored with it) and average the
         two sets of key points (:meth:`_with_mirrored`): one more inference per camera and
@@ -160,6 +205,7 @@ class PoseDetector:
         threads: int = 1,
         model_path: str | Path | None = None,
         mirror: bool = False,
+        refine: bool = True,
     ) -> None:
         if not crop_scale > 0:
             raise ValueError(f"crop_scale must be > 0, not {crop_scale}")
@@ -171,9 +217,10 @@ class PoseDetector:
         self.min_presence = float(min_presence)
         self.threads = int(threads)
         self.mirror = bool(mirror)
+        self.refine = bool(refine)
         self.model_path = Path(model_path) if model_path is not None else MODEL_PATH
         self._interp = None
-        self._io: tuple[int, int, int] | None = None
+        self._io: tuple[int, int, int, int | None] | None = None
         #: Per camera index the crop followed from the last frame (:meth:`detect_frames`).
         self._follow: dict[int, tuple[float, float, float, float]] = {}
 
@@ -217,8 +264,17 @@ class PoseDetector:
                 f"{self.model_path}: {int(np.prod(marks['shape']))} landmark values, expected "
                 f"{5 * N_LANDMARKS}"
             )
+        heat = None
+        if self.refine:
+            hm = outs.get("Identity_3")
+            if hm is None or len(hm["shape"]) != 4 or int(hm["shape"][3]) != N_LANDMARKS:
+                raise DetectorUnavailableError(
+                    f"{self.model_path}: no landmark heatmap output to refine the landmarks "
+                    "with (refine = false runs without)"
+                )
+            heat = int(hm["index"])
         self._interp = interp
-        self._io = (int(inp["index"]), int(marks["index"]), int(flag["index"]))
+        self._io = (int(inp["index"]), int(marks["index"]), int(flag["index"]), heat)
 
     def __deepcopy__(self, memo: dict) -> PoseDetector:
         """Copies share the loaded interpreter (a model is read-only; the tracker's backward
@@ -261,10 +317,12 @@ class PoseDetector:
         )
         x = cv2.cvtColor(x, cv2.COLOR_BGR2RGB).astype(np.float32)
         x *= 1.0 / 255.0
-        inp, marks_i, flag_i = self._io  # type: ignore[misc]
+        inp, marks_i, flag_i, heat_i = self._io  # type: ignore[misc]
         self._interp.set_tensor(inp, x[None])
         self._interp.invoke()
         raw = np.asarray(self._interp.get_tensor(marks_i), dtype=np.float64).reshape(N_LANDMARKS, 5)
+        if heat_i is not None:
+            raw[:, :2] = refine_from_heatmap(raw[:, :2], self._interp.get_tensor(heat_i)[0])
         # The presence output is a probability already (0.00003 on a black crop).
         presence = float(np.clip(np.asarray(self._interp.get_tensor(flag_i)).ravel()[0], 0, 1))
         uv = (raw[:, :2] - m[:, 2]) @ np.linalg.inv(m[:, :2]).T  # input -> frame pixels
@@ -400,6 +458,7 @@ def make_detector(config, n_cameras: int = 1) -> PoseDetector | None:
         crop_scale=config.crop_scale,
         min_presence=config.min_presence,
         threads=config.threads,
+        refine=config.heatmap_refine,
         mirror=config.mirror and n_cameras >= config.mirror_min_cameras,
     )
     det.load()
