@@ -87,6 +87,7 @@ B*.json`` prints the paired differences (its docstring has the commands).
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import logging
 import math
@@ -1156,9 +1157,11 @@ def targets(runs: list[Run]) -> tuple[str, list[tuple[str, bool | None]]]:
     return "\n".join(lines), checks
 
 
+@functools.cache
 def _commit() -> str:
     """The checkout's short commit, and whether the tracker's or analysis's code differs from
-    it ("?" without git)."""
+    it ("?" without git); read once, when the run starts (``main``), so that files edited while
+    it runs are not ascribed to it."""
     try:
         commit = subprocess.run(
             ["git", "-C", str(REPO), "rev-parse", "--short", "HEAD"],
@@ -1513,6 +1516,7 @@ def main(argv: list[str] | None = None) -> int:
         settings = _merged(settings or {}, {"keypoints": {"enabled": True}})
     plan = make_plan(args)
     draws = [(args.seed + i, args.tracker_seed + i) for i in range(args.draws)]
+    _commit()  # the code this run imports, before it runs
     t_start = time.perf_counter()
     runs: list[Run] = []
     bar = tqdm(
