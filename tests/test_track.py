@@ -243,9 +243,10 @@ def test_leg_length_estimated_with_two_cameras(clip: dict) -> None:
             res = tracker.process(i, i / FPS, frames[i])
             assert res.has_pose
             assert tracker.likelihood.body is tracker.body
-            # the estimate is the body's own: a foot stays on the floor
-            ankles = res.joints[[L_ANKLE, R_ANKLE], 2]
-            assert ankles.min() < 0.15
+            # the estimate is the body's own, and that body stands on the floor (floor contact:
+            # the lowest key point within the tolerance of z = 0)
+            np.testing.assert_allclose(res.joints, tracker.body.forward(res.pose[None])[0])
+            assert abs(res.joints[:, 2].min()) <= config.floor_tolerance_m + 1e-9
             seen.append(tracker.body.leg_length)
         assert seen[0] == 1.0  # the initialised frame is not scored
         assert seen[3] == seen[4] == seen[5]  # fixed after leg_length_frames tracked frames
