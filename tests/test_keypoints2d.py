@@ -11,7 +11,7 @@ from tracker.body import BodyModel
 from tracker.camera import Camera
 from tracker.config import KeypointConfig, TrackerConfig
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, JointLimits
-from tracker.keypoints2d import PARTS, KeypointCue
+from tracker.keypoints2d import PARTS, KeypointCue, KeypointHeatmaps, sample_maps
 from tracker.likelihood import SilhouetteLikelihood, weight_from_counts
 
 SIZE = (320, 240)
@@ -265,3 +265,189 @@ def test_tracker_feeds_the_cue_and_without_key_points_tracks_as_before() -> None
     assert tr.keypoint_cue.active and 0.0 < tr.keypoint_cue.typical <= 1.0
     assert all(r.has_pose for r in with_points)
     assert any(not np.array_equal(a.pose, b.pose) for a, b in zip(off, with_points, strict=True))
+
+
+# -- scored by the detector's heatmaps ------------------------------------------------------
+
+
+def _heatmaps(dets, extra=None, sigma_cells=1.5, scale=0.25) -> list[KeypointHeatmaps]:
+    """Per camera heatmaps with a Gaussian blob (peak 0.8) at each detected point, in cells of
+    ``scale`` x the image's pixels; ``extra`` {key point: (u, v)} adds a second blob of the same
+    height (a second place the detector thinks the landmark may be)."""
+    out = []
+    for d in dets:
+        rows, cols = int(np.ceil(SIZE[1] * scale)) + 1, int(np.ceil(SIZE[0] * scale)) + 1
+        yy, xx = np.mgrid[0:rows, 0:cols]
+        maps = np.zeros((d.shape[0], rows, cols), dtype=np.float32)
+        for j, (u, v) in enumerate(d[:, :2]):
+            for pu, pv in [(u, v), *([extra[j]] if extra and j in extra else [])]:
+                blob = 0.8 * np.exp(
+                    -((xx - pu * scale) ** 2 + (yy - pv * scale) ** 2) / (2 * sigma_cells**2)
+                )
+                maps[j] = np.maximum(maps[j], blob)
+        out.append(KeypointHeatmaps(maps, np.array([[scale, 0, 0], [0, scale, 0.0]])))
+    return out
+
+
+def _heat_cue(cameras, dets, maps, typical=None, **kw) -> KeypointCue:
+    kw.setdefault("parts_multi_camera", None)
+    cue = KeypointCue(cameras, KeypointConfig(enabled=True, score="heatmap", **kw))
+    cue.set_frame(dets, maps)
+    cue.typical = typical
+    return cue
+
+
+def test_sample_maps_is_bilinear_and_zero_outside() -> None:
+    rows, cols = 5, 7
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    # (2 sides, 2 points, 5 rows, 7 columns): linear in the cells, so bilinear samples are exact
+    maps = np.stack([np.stack([1 + 2 * xx + 3 * yy, 10 - xx])] * 2).astype(np.float32)
+    cells = np.array(
+        [
+            [[0.0, 0.0], [2.5, 1.25]],
+            [[6.0, 4.0], [5.9, 3.1]],  # the last column and row are inside
+            [[-0.1, 2.0], [3.0, 4.2]],  # outside
+            [[np.nan, 1.0], [1.0, np.inf]],  # NaN and infinity: outside
+        ]
+    )  # (N 4, h 2, 2)
+    got = sample_maps(maps, cells)
+    assert got.shape == (2, 4, 2)
+    expected = np.array([[1.0, 10 - 2.5], [1 + 12 + 12, 10 - 5.9], [0, 0], [0, 0]])
+    expected[0, 0] = 1.0
+    expected[0, 1] = 10 - 2.5
+    expected[1, 0] = 1 + 2 * 6 + 3 * 4
+    expected[1, 1] = 10 - 5.9
+    np.testing.assert_allclose(got[0], expected, rtol=1e-6)
+    np.testing.assert_allclose(got[1], expected, rtol=1e-6)
+    np.testing.assert_allclose(
+        sample_maps(maps, np.array([[[2.5, 1.25], [0.0, 0.0]]]))[0, 0, 0], 1 + 5 + 3.75, rtol=1e-6
+    )
+
+
+def test_heatmaps_are_checked() -> None:
+    with pytest.raises(ValueError, match="shape"):
+        KeypointHeatmaps(np.zeros((18, 8, 8)), np.eye(2, 3))
+    with pytest.raises(ValueError, match="shape"):
+        KeypointHeatmaps(np.zeros((19, 1, 8)), np.eye(2, 3))
+    with pytest.raises(ValueError, match="affine"):
+        KeypointHeatmaps(np.zeros((19, 8, 8)), np.eye(3))
+    with pytest.raises(ValueError, match="affine"):
+        KeypointHeatmaps(np.zeros((19, 8, 8)), np.full((2, 3), np.nan))
+
+
+@pytest.mark.parametrize(
+    ("dof", "delta", "parts"),
+    [
+        ("l_knee_flexion", 0.3, ("legs",)),
+        ("r_hip_flexion", -0.3, ("legs",)),
+        ("root_x", 0.1, ("legs",)),
+        ("l_elbow_flexion", 0.5, ("legs", "arms")),
+    ],
+)
+def test_heatmap_score_is_highest_at_the_detected_pose(body, cameras, dof, delta, parts) -> None:
+    pose = _pose(body)
+    dets = _detections(body, pose, cameras)
+    cue = _heat_cue(cameras, dets, _heatmaps(dets), parts=parts)
+    poses = np.stack([pose, pose])
+    poses[1, DOF[dof]] += delta
+    s = cue.scores(body, body.points(poses))
+    assert 0.7 < s[0] <= 0.8  # the blobs' peak, less what bilinear samples between cells lose
+    assert 0.0 <= s[1] < s[0] - 0.01, (dof, s)  # the elbow moves one point of 14
+
+
+def test_heatmaps_keep_a_second_place_a_point_loses(body, cameras) -> None:
+    """The detector's point is on the wrong knee place but its heatmap also has the right one:
+    scored by the heatmap both places score alike; scored by the point only the wrong one."""
+    pose = _pose(body)
+    bent = pose.copy()
+    bent[DOF["l_knee_flexion"]] += 0.5
+    truth = _detections(body, pose, cameras)
+    wrong = _detections(body, bent, cameras)
+    extra = [{j: tuple(t[j, :2]) for j in (13, 15, 17)} for t in truth]
+    maps = [
+        _heatmaps([w], extra=e)[0] for w, e in zip(wrong, extra, strict=True)
+    ]  # blobs at both places
+    pts = body.points(np.stack([pose, bent]))
+    by_heat = _heat_cue(cameras, wrong, maps).scores(body, pts)
+    by_point = _cue(cameras, wrong).scores(body, pts)
+    assert by_heat[0] == pytest.approx(by_heat[1], rel=0.05)
+    assert by_point[0] < 0.95 * by_point[1]
+
+
+def test_heatmap_side_labels_do_not_matter(body, cameras) -> None:
+    pose = _pose(body)
+    moved = pose.copy()
+    moved[[DOF["l_knee_flexion"], DOF["r_elbow_flexion"]]] += 0.3
+    pts = body.points(np.stack([pose, moved]))
+    dets = _detections(body, pose, cameras)
+    ref = _heat_cue(cameras, dets, _heatmaps(dets), parts=("legs", "arms")).scores(body, pts)
+    swapped = _detections(body, pose, cameras, swap=(True, False))
+    got = _heat_cue(cameras, swapped, _heatmaps(swapped), parts=("legs", "arms")).scores(body, pts)
+    np.testing.assert_allclose(got, ref, rtol=1e-6)
+
+
+@pytest.mark.parametrize("parts", [("legs",), ("legs", "arms")])
+def test_factored_equals_unfactored_with_heatmaps(body, cameras, parts) -> None:
+    pose = _pose(body)
+    painted = [_paint(body, pose, c) for c in cameras]
+    lik = SilhouetteLikelihood(body, cameras)
+    lik.set_silhouettes([p[1] for p in painted])
+    dets = _detections(body, pose, cameras, swap=(False, True))
+    cue = _heat_cue(cameras, dets, _heatmaps(dets, sigma_cells=4.0), typical=0.5, parts=parts)
+    lik.keypoints = cue
+    rng = np.random.default_rng(5)
+    lo, hi = JointLimits.profile("walking").arrays()
+    m, na, nb = 3, 4, 5
+    base = np.repeat(pose[None], m, axis=0)
+    base[:, 6:] = np.clip(base[:, 6:] + rng.normal(0, 0.1, (m, N_DOF - 6)), lo[6:], hi[6:])
+    left = np.clip(
+        pose[list(LEFT_LEG)] + rng.normal(0, 0.15, (m, na, len(LEFT_LEG))),
+        lo[list(LEFT_LEG)],
+        hi[list(LEFT_LEG)],
+    )
+    right = np.clip(
+        pose[list(RIGHT_LEG)] + rng.normal(0, 0.15, (m, nb, len(RIGHT_LEG))),
+        lo[list(RIGHT_LEG)],
+        hi[list(RIGHT_LEG)],
+    )
+    wf = lik.weights_factored(base, left, right)
+    full = np.repeat(np.repeat(base[:, None, None], na, 1), nb, 2)
+    full[..., list(LEFT_LEG)] = left[:, :, None]
+    full[..., list(RIGHT_LEG)] = right[:, None, :]
+    flat = full.reshape(-1, N_DOF)
+    w = lik.weights(flat).reshape(m, na, nb)
+    np.testing.assert_allclose(wf, w, rtol=1e-10, atol=1e-15)
+    s = cue.scores(body, body.points(flat))
+    assert s.std() > 0.01
+
+
+def test_heatmaps_follow_the_config_and_the_frame_state(body, cameras) -> None:
+    pose = _pose(body)
+    moved = pose.copy()
+    moved[DOF["l_knee_flexion"]] += 0.3
+    pts = body.points(np.stack([pose, moved]))
+    dets = _detections(body, pose, cameras)
+    maps = _heatmaps(dets)
+    cue = _heat_cue(cameras, dets, maps)
+    by_heat = cue.scores(body, pts)
+    state = cue.frame_state()  # the backward pass keeps the heatmaps with the frame
+    cue.set_frame(dets)  # no heatmaps (key points given by a caller): scored as points
+    legs = _cue(cameras, dets, parts=("legs",))
+    np.testing.assert_allclose(cue.scores(body, pts), legs.scores(body, pts))
+    cue.restore_frame(state)
+    np.testing.assert_allclose(cue.scores(body, pts), by_heat)
+    # scored as points where the config says so, heatmaps or not
+    point = KeypointCue(cameras, KeypointConfig(score_multi_camera="point"))
+    point.set_frame(dets, maps)
+    np.testing.assert_allclose(point.scores(body, pts), _cue(cameras, dets).scores(body, pts))
+    # the default: points through one camera, heatmaps through more
+    cfg = KeypointConfig()
+    assert (cfg.score_for(1), cfg.score_for(2), cfg.score_for(3)) == ("point", "heatmap", "heatmap")
+    assert KeypointConfig(score="heatmap", score_multi_camera=None).score_for(2) == "heatmap"
+    assert KeypointCue(cameras[:1], cfg).score_mode == "point"
+    with pytest.raises(ValueError, match="heatmaps for 2 cameras"):
+        cue.set_frame(dets, maps[:1])
+    with pytest.raises(ValueError, match="KeypointHeatmaps"):
+        cue.set_frame(dets, [maps[0].maps, maps[1]])
+    with pytest.raises(ValidationError):
+        KeypointConfig(score="gaussian")

@@ -1296,7 +1296,8 @@ class KeypointConfig(_Model):
         Field(
             description="Run the built-in detector also on each frame mirrored and average "
             "its key points with the frame's (twice the detector's time), with at least "
-            'mirror_min_cameras cameras (opt-in: docs/tracker.md, "Session 40")',
+            'mirror_min_cameras cameras (opt-in: docs/tracker.md, "Session 40"); points '
+            "scored by heatmaps use the first inference's maps only",
         ),
     ] = False
     mirror_min_cameras: Annotated[
@@ -1311,6 +1312,15 @@ class KeypointConfig(_Model):
     beta: Annotated[
         float, Field(gt=0, le=20, description="Exponent of the key-point factor (its strength)")
     ] = 1.0
+    heatmap_beta: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=20,
+            description="Exponent of the key-point factor when the points are scored by "
+            "heatmaps (their scores are sharper than the points' Gaussians)",
+        ),
+    ] = 0.5
     sigma_fraction: Annotated[
         float,
         Field(
@@ -1320,6 +1330,30 @@ class KeypointConfig(_Model):
             "height in the image",
         ),
     ] = 0.08
+    score: Annotated[
+        Literal["point", "heatmap"],
+        Field(
+            description="How a model point is scored with one camera: point (a Gaussian of its "
+            "distance to the detected point) or heatmap (the built-in detector's heatmap of that "
+            "landmark where the point projects; key points given by the caller are scored as "
+            "points)",
+        ),
+    ] = "point"
+    score_multi_camera: Annotated[
+        Literal["point", "heatmap"] | None,
+        Field(
+            description="How a model point is scored with two cameras or more (None: as score; "
+            'docs/tracker.md, "Session 43")',
+        ),
+    ] = "heatmap"
+
+    def score_for(self, n_cameras: int) -> str:
+        """How a model point is scored with ``n_cameras`` cameras (``score`` or
+        ``score_multi_camera``)."""
+        if n_cameras > 1 and self.score_multi_camera is not None:
+            return self.score_multi_camera
+        return self.score
+
     tolerance_fraction: Annotated[
         float,
         Field(

@@ -45,6 +45,7 @@ import cv2
 import numpy as np
 
 from gaitwatch.conventions import KP, N_KEYPOINTS, SIDES, SIDES_EXCHANGED
+from tracker.keypoints2d import KeypointHeatmaps
 
 #: The model file shipped with the package.
 MODEL_PATH = Path(__file__).parent / "models" / "pose_landmark_full.tflite"
@@ -201,6 +202,10 @@ class PoseDetector:
         Also run the model on the frame mirrored (the crop mirrored with it) and average the
         two sets of key points (:meth:`_with_mirrored`): one more inference per camera and
         frame. The crop followed to the next frame stays the first inference's.
+    heatmaps : bool
+        Also keep each detection's heatmaps (:attr:`last_heatmaps`, for the key-point cue's
+        ``score = "heatmap"``): the first inference's, as probabilities, in the key points'
+        order.
     """
 
     def __init__(
@@ -211,6 +216,7 @@ class PoseDetector:
         model_path: str | Path | None = None,
         mirror: bool = False,
         refine: bool = True,
+        heatmaps: bool = False,
     ) -> None:
         if not crop_scale > 0:
             raise ValueError(f"crop_scale must be > 0, not {crop_scale}")
@@ -223,6 +229,11 @@ class PoseDetector:
         self.threads = int(threads)
         self.mirror = bool(mirror)
         self.refine = bool(refine)
+        self.heatmaps = bool(heatmaps)
+        #: Per camera of the last :meth:`detect_frames` the detection's heatmaps or None (with
+        #: ``heatmaps``; else None).
+        self.last_heatmaps: list[KeypointHeatmaps | None] | None = None
+        self._heat_raw: np.ndarray | None = None  # the last inference's heatmap logits
         self.model_path = Path(model_path) if model_path is not None else MODEL_PATH
         self._interp = None
         self._io: tuple[int, int, int, int | None] | None = None
@@ -270,12 +281,12 @@ class PoseDetector:
                 f"{5 * N_LANDMARKS}"
             )
         heat = None
-        if self.refine:
+        if self.refine or self.heatmaps:
             hm = outs.get("Identity_3")
             if hm is None or len(hm["shape"]) != 4 or int(hm["shape"][3]) != N_LANDMARKS:
                 raise DetectorUnavailableError(
                     f"{self.model_path}: no landmark heatmap output to refine the landmarks "
-                    "with (refine = false runs without)"
+                    "with or to score by (refine = false and heatmaps = false run without)"
                 )
             heat = int(hm["index"])
         self._interp = interp
@@ -326,8 +337,10 @@ class PoseDetector:
         self._interp.set_tensor(inp, x[None])
         self._interp.invoke()
         raw = np.asarray(self._interp.get_tensor(marks_i), dtype=np.float64).reshape(N_LANDMARKS, 5)
-        if heat_i is not None:
-            raw[:, :2] = refine_from_heatmap(raw[:, :2], self._interp.get_tensor(heat_i)[0])
+        heat = None if heat_i is None else self._interp.get_tensor(heat_i)[0]
+        if heat is not None and self.refine:
+            raw[:, :2] = refine_from_heatmap(raw[:, :2], heat)
+        self._heat_raw = heat.copy() if heat is not None and self.heatmaps else None
         # The presence output is a probability already (0.00003 on a black crop).
         presence = float(np.clip(np.asarray(self._interp.get_tensor(flag_i)).ravel()[0], 0, 1))
         uv = (raw[:, :2] - m[:, 2]) @ np.linalg.inv(m[:, :2]).T  # input -> frame pixels
@@ -363,9 +376,22 @@ class PoseDetector:
         if presence < self.min_presence:
             return None
         kp = self._keypoints(uv, vis)
+        heat = self._heatmaps(crop) if self.heatmaps else None
         if self.mirror:
             kp = self._with_mirrored(kp, image_bgr, crop)
-        return kp, alignment_crop(uv)
+        return kp, alignment_crop(uv), heat
+
+    def _heatmaps(self, crop) -> KeypointHeatmaps | None:
+        """The last inference's heatmaps as :class:`KeypointHeatmaps` of the frame's pixels
+        (a cell's column ``c`` at ``c x 4`` input pixels, as :func:`refine_from_heatmap`)."""
+        if self._heat_raw is None:
+            return None
+        logits = self._heat_raw
+        rows, cols = logits.shape[:2]
+        maps = np.zeros((N_KEYPOINTS, rows, cols), dtype=np.float32)
+        maps[_OURS] = np.moveaxis(_sigmoid(logits[:, :, _THEIRS].astype(np.float64)), 2, 0)
+        to_map = crop_transform(*crop) * np.array([[cols / INPUT_SIZE], [rows / INPUT_SIZE]])
+        return KeypointHeatmaps(maps, to_map)
 
     def _with_mirrored(self, kp: np.ndarray, image_bgr: np.ndarray, crop) -> np.ndarray:
         """``kp`` averaged with the key points the model finds on the mirrored frame (the same
@@ -418,9 +444,12 @@ class PoseDetector:
             raise ValueError(f"{len(frames)} frames for {len(segs)} segmentations")
         follow = self._follow
         out: list[np.ndarray | None] = []
+        heats: list[KeypointHeatmaps | None] = []
+        self.last_heatmaps = heats if self.heatmaps else None
         for k, (frame, seg) in enumerate(zip(frames, segs, strict=True)):
             box = None if seg.empty else silhouette_box(seg.blobs)
             crop = follow.pop(k, None)
+            heats.append(None)
             if box is None:
                 out.append(None)
                 continue
@@ -432,13 +461,18 @@ class PoseDetector:
             if found is None:
                 out.append(None)
                 continue
-            det, follow[k] = found
+            det, follow[k], heat = found
             if sizes is not None:
                 w, h = sizes[k]
                 fh, fw = frame.shape[:2]
                 if (fw, fh) != (w, h):
                     det[:, 0] *= w / fw
                     det[:, 1] *= h / fh
+                    if heat is not None:  # the camera's pixels -> the frame's -> cells
+                        heat = KeypointHeatmaps(
+                            heat.maps, heat.to_map * np.array([fw / w, fh / h, 1.0])
+                        )
+            heats[k] = heat
             out.append(det)
         return out
 
@@ -465,6 +499,7 @@ def make_detector(config, n_cameras: int = 1) -> PoseDetector | None:
         threads=config.threads,
         refine=config.heatmap_refine,
         mirror=config.mirror and n_cameras >= config.mirror_min_cameras,
+        heatmaps=config.score_for(n_cameras) == "heatmap",
     )
     det.load()
     return det

@@ -223,13 +223,16 @@ class EnsembleTracker:
         segs: Sequence[Segmentation],
         frames: Sequence[np.ndarray] | None = None,
         keypoints: Sequence[np.ndarray | None] | None = None,
+        heatmaps: Sequence | None = None,
     ) -> FrameResult:
         """As :meth:`tracker.pipeline.Tracker.process_segmentations`, every track in turn (the
         built-in detector runs once, on the silhouettes before each track chooses its blobs)."""
         if keypoints is None and frames is not None and not all(s.empty for s in segs):
             keypoints = self.tracks[0].detect_keypoints(frames, segs)
+            det = self.tracks[0].detector
+            heatmaps = None if det is None else det.last_heatmaps
         results = [
-            t.process_segmentations(frame_index, time_s, segs, frames, keypoints)
+            t.process_segmentations(frame_index, time_s, segs, frames, keypoints, heatmaps)
             for t in self.tracks
         ]
         revised: set[int] = set()

@@ -26,6 +26,17 @@ camera to ``Tracker.process(..., keypoints=...)``.
   leg's sums against either detected side depend on that leg only and the arms lie in the base
   poses, so the score of every leg combination follows from per-leg sums (``scores_factored``)
   and the IPF's factored weights stay exact.
+* **Heatmaps** (config ``score`` with one camera, ``score_multi_camera`` with more; by default
+  with two cameras or more): besides its points, the built-in detector gives per landmark a
+  heatmap, how likely each place of its crop holds it (:class:`KeypointHeatmaps`). A model
+  point then scores that heatmap's value where it projects (bilinear, 0 outside the map) in
+  place of the Gaussian of its distance to one detected point: the map keeps what the single
+  point loses, a second place the landmark may be and how sure the detector is around it.
+  Everything else is as above (the detected points that are confident enough, the better
+  assignment of the sides, the mean), but the factor's exponent is ``heatmap_beta`` (0.5):
+  a heatmap falls off within a few hundredths of the person's height, where the points'
+  Gaussian spreads over 8 %. Key points given by the caller come without heatmaps and are
+  scored as points.
 * **Combination**: ``SilhouetteLikelihood.keypoints`` multiplies every weight by ``(score /
   typical) ** beta``, ``typical`` the running score of the estimates (``update``), so weights
   keep the IoU scale. The cue is inactive until the first estimate gives the typical score,
@@ -38,6 +49,7 @@ camera to ``Tracker.process(..., keypoints=...)``.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -64,6 +76,58 @@ PARTS: dict[str, tuple[tuple[int, ...], tuple[int, ...]]] = {
 }
 
 
+@dataclass(frozen=True)
+class KeypointHeatmaps:
+    """A detector's heatmaps of one camera and frame: per CONVENTIONS key point a map of how
+    likely each place holds it.
+
+    Attributes
+    ----------
+    maps : ndarray ``(19, H, W)``
+        Probabilities in [0, 1] in the CONVENTIONS key-point order (zeros for a key point the
+        detector has no map of).
+    to_map : ndarray ``(2, 3)``
+        The affine map from the camera's image pixels to the maps' cells: cell ``(row, col)``
+        lies at ``to_map @ (u, v, 1) = (col, row)``.
+    """
+
+    maps: np.ndarray
+    to_map: np.ndarray
+
+    def __post_init__(self) -> None:
+        maps = np.asarray(self.maps)
+        to_map = np.asarray(self.to_map, dtype=np.float64)
+        if maps.ndim != 3 or maps.shape[0] != N_KEYPOINTS or min(maps.shape[1:]) < 2:
+            raise ValueError(
+                f"heatmaps must have shape ({N_KEYPOINTS}, H, W) with H, W >= 2, got {maps.shape}"
+            )
+        if to_map.shape != (2, 3) or not np.isfinite(to_map).all():
+            raise ValueError(f"to_map must be a finite (2, 3) affine map, got {to_map.shape}")
+        object.__setattr__(self, "to_map", to_map)
+
+
+def sample_maps(maps: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Bilinear samples of maps ``(2, h, H, W)`` at cell positions ``cells`` ``(N, h, 2)``
+    (col, row): ``(2, N, h)``, the j-th position sampled on each side's j-th map; 0 outside the
+    maps and at NaN."""
+    _, h, rows, cols = maps.shape
+    x, y = cells[..., 0], cells[..., 1]
+    inside = (x >= 0) & (x <= cols - 1) & (y >= 0) & (y <= rows - 1)  # NaN is outside
+    x = np.where(inside, x, 0.0)
+    y = np.where(inside, y, 0.0)
+    x0 = np.minimum(np.floor(x).astype(np.intp), cols - 2)
+    y0 = np.minimum(np.floor(y).astype(np.intp), rows - 2)
+    fx, fy = x - x0, y - y0
+    j = np.arange(h)[None, :]
+    v00 = maps[:, j, y0, x0]
+    v01 = maps[:, j, y0, x0 + 1]
+    v10 = maps[:, j, y0 + 1, x0]
+    v11 = maps[:, j, y0 + 1, x0 + 1]
+    top = v00 + (v01 - v00) * fx
+    bottom = v10 + (v11 - v10) * fx
+    return np.where(inside, top + (bottom - top) * fy, 0.0)
+
+
 class KeypointCue:
     """Detected 2D key points of the current frame and the key-point score of poses.
 
@@ -80,6 +144,8 @@ class KeypointCue:
         self.cameras = list(cameras)
         multi = len(self.cameras) > 1 and config.parts_multi_camera is not None
         self.parts = tuple(config.parts_multi_camera if multi else config.parts)
+        #: How points are scored: "point" or "heatmap" (with the detector's heatmaps).
+        self.score_mode = config.score_for(len(self.cameras))
         unknown = set(self.parts) - set(PARTS)
         if unknown:
             raise ValueError(f"unknown key-point parts {sorted(unknown)}: among {sorted(PARTS)}")
@@ -89,6 +155,8 @@ class KeypointCue:
         self._det: list[dict[str, np.ndarray] | None] | None = None
         self._sigma: np.ndarray | None = None  # per camera (K,)
         self._tol: np.ndarray | None = None  # per camera (K,), pixels
+        #: Per camera None or the detector's heatmaps (config ``score = "heatmap"``).
+        self._heat: list[KeypointHeatmaps | None] | None = None
         #: Per camera None or, per part with a detected point, what the scores need
         #: (:meth:`_prepare`).
         self._prep: list[dict[str, tuple] | None] | None = None
@@ -97,8 +165,14 @@ class KeypointCue:
         self._face: list[np.ndarray | None] | None = None
 
     # -- the frame -------------------------------------------------------------------------
-    def set_frame(self, detections: Sequence[np.ndarray | None] | None) -> None:
-        """This frame's detections (module docstring); None or no usable point: no frame."""
+    def set_frame(
+        self,
+        detections: Sequence[np.ndarray | None] | None,
+        heatmaps: Sequence[KeypointHeatmaps | None] | None = None,
+    ) -> None:
+        """This frame's detections (module docstring); None or no usable point: no frame.
+        ``heatmaps``, per camera the detector's :class:`KeypointHeatmaps` (or None), score the
+        detected points by their maps when the config's ``score`` is ``"heatmap"``."""
         if detections is None:
             self.clear_frame()
             return
@@ -106,6 +180,14 @@ class KeypointCue:
             raise ValueError(
                 f"expected key points for {len(self.cameras)} cameras, got {len(detections)}"
             )
+        if heatmaps is not None and len(heatmaps) != len(self.cameras):
+            raise ValueError(
+                f"expected heatmaps for {len(self.cameras)} cameras, got {len(heatmaps)}"
+            )
+        if self.score_mode != "heatmap" or heatmaps is None:
+            heatmaps = None
+        elif any(hm is not None and not isinstance(hm, KeypointHeatmaps) for hm in heatmaps):
+            raise ValueError("heatmaps must be KeypointHeatmaps or None per camera")
         det: list[dict[str, np.ndarray] | None] = []
         face: list[np.ndarray | None] = []
         sigma = np.zeros(len(self.cameras))
@@ -136,15 +218,18 @@ class KeypointCue:
             self.clear_frame()
         else:
             self._det, self._sigma, self._tol = det, sigma, tol
+            self._heat = None if heatmaps is None else list(heatmaps)
             self._prepare()
         self._face = face if any(f is not None for f in face) else None
 
     def _prepare(self) -> None:
         """Per camera and part the detected kinds of point (either side), the model's point
         indices of each side for them, the detected points ``(2, H, 2)`` (0 where missing),
-        which are there ``(2, H)``, and how many."""
+        which are there ``(2, H)``, how many, and their heatmaps ``(2, H, rows, cols)`` with
+        the map of the image's pixels to their cells (None: scored by distance)."""
         prep: list[dict[str, tuple] | None] = []
-        for det in self._det or ():
+        heat = self._heat or [None] * len(self.cameras)
+        for det, hm in zip(self._det or (), heat, strict=False):
             if det is None:
                 prep.append(None)
                 continue
@@ -157,18 +242,28 @@ class KeypointCue:
                 sels = tuple([PARTS[part][side][j] for j in have] for side in (0, 1))
                 valid = found[:, have]
                 filled = np.where(valid[..., None], pts[:, have], 0.0)
-                parts[part] = (sels, filled, valid, float(found.sum()))
+                maps = None
+                if hm is not None:
+                    idx = np.array([[PARTS[part][side][j] for j in have] for side in (0, 1)])
+                    maps = (np.asarray(hm.maps, dtype=np.float32)[idx], hm.to_map)
+                parts[part] = (sels, filled, valid, float(found.sum()), maps)
             prep.append(parts)
         self._prep = prep
 
     def clear_frame(self) -> None:
         """No detections this frame: the cue does not score it."""
         self._det = self._sigma = self._tol = self._prep = None
+        self._heat = None
         self._face = None
 
     @property
     def has_frame(self) -> bool:
         return self._det is not None
+
+    @property
+    def scores_heatmaps(self) -> bool:
+        """True when this frame's points are scored by the detector's heatmaps."""
+        return self._heat is not None
 
     @property
     def active(self) -> bool:
@@ -180,8 +275,9 @@ class KeypointCue:
         if self._det is None and self._face is None:
             return None
         if self._det is None:
-            return None, None, None, self._face
-        return list(self._det), self._sigma.copy(), self._tol.copy(), self._face
+            return None, None, None, self._face, None
+        heat = None if self._heat is None else list(self._heat)
+        return list(self._det), self._sigma.copy(), self._tol.copy(), self._face, heat
 
     def restore_frame(self, state: tuple | None) -> None:
         """Set the frame kept by :meth:`frame_state` (None: no frame)."""
@@ -190,8 +286,9 @@ class KeypointCue:
             return
         if state[0] is not None:
             self._det, self._sigma, self._tol = list(state[0]), state[1].copy(), state[2].copy()
+            self._heat = state[4]
             self._prepare()
-        self._face = state[3] if len(state) > 3 else None
+        self._face = state[3]
 
     # -- facing ----------------------------------------------------------------------------
     def facing(self, joints: np.ndarray, min_profile: float) -> float | None:
@@ -231,17 +328,21 @@ class KeypointCue:
             entry = None if prep is None else prep.get(part)
             if entry is None:
                 continue
-            sels, filled, valid, count = entry
+            sels, filled, valid, count, maps = entry
             h = len(sels[0])
             cols = sels[sides[0]] if len(sides) == 1 else sels[0] + sels[1]
             uv_all = cam.project(pts[:, cols])
             for j, sums in enumerate(out):
                 uv = uv_all[:, j * h : (j + 1) * h]  # (N, h, 2)
-                diff = uv[None] - filled[:, None]  # (2 detected sides, N, h, 2)
-                d = np.sqrt(diff[..., 0] ** 2 + diff[..., 1] ** 2)  # as np.linalg.norm
-                if self._tol[k] > 0:  # within the tolerance: a match
-                    d = np.maximum(d - self._tol[k], 0.0)
-                g = np.exp(-0.5 * (d / self._sigma[k]) ** 2)
+                if maps is not None:  # the detected side's heatmap where the point projects
+                    cells = uv @ maps[1][:, :2].T + maps[1][:, 2]
+                    g = sample_maps(maps[0], cells)  # (2 detected sides, N, h)
+                else:
+                    diff = uv[None] - filled[:, None]  # (2 detected sides, N, h, 2)
+                    d = np.sqrt(diff[..., 0] ** 2 + diff[..., 1] ** 2)  # as np.linalg.norm
+                    if self._tol[k] > 0:  # within the tolerance: a match
+                        d = np.maximum(d - self._tol[k], 0.0)
+                    g = np.exp(-0.5 * (d / self._sigma[k]) ** 2)
                 g = np.where(valid[:, None] & (g == g), g, 0.0)  # NaN: a point behind the camera
                 sums[:, :, k] = g.sum(axis=2)
             counts[k] = count
@@ -297,9 +398,11 @@ class KeypointCue:
         return self._mean(total, counts)
 
     def factor(self, scores: np.ndarray) -> np.ndarray:
-        """The multiplier of the silhouette weight: ``(scores / typical) ** beta``."""
+        """The multiplier of the silhouette weight: ``(scores / typical) ** beta``
+        (``heatmap_beta`` when this frame's points are scored by heatmaps)."""
         typ = self.typical if self.typical else 1.0
-        return (np.maximum(scores, 1e-6) / typ) ** self.config.beta
+        beta = self.config.heatmap_beta if self.scores_heatmaps else self.config.beta
+        return (np.maximum(scores, 1e-6) / typ) ** beta
 
     def weight_factors(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
         """``factor(scores(body, pts))`` ``(N,)``."""
@@ -378,4 +481,12 @@ def facing_evidence(
     return float((nose - 0.5 * (left + right)) @ ahead) / na, float(profile)
 
 
-__all__ = ["LEFT_POINTS", "PARTS", "RIGHT_POINTS", "KeypointCue", "facing_evidence"]
+__all__ = [
+    "LEFT_POINTS",
+    "PARTS",
+    "RIGHT_POINTS",
+    "KeypointCue",
+    "KeypointHeatmaps",
+    "facing_evidence",
+    "sample_maps",
+]

@@ -72,7 +72,7 @@ from tracker.detector2d import silhouette_box
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, SEATED_DOFS, wrap_angle
 from tracker.filters import Filter, make_filter, select_distinct
 from tracker.init import body_configurations, camera_floor_point, floor_point, initial_search
-from tracker.keypoints2d import LEFT_POINTS, RIGHT_POINTS
+from tracker.keypoints2d import LEFT_POINTS, RIGHT_POINTS, KeypointHeatmaps
 from tracker.occlusion import OcclusionLearner, background_regions
 from tracker.origin import search_origin
 from tracker.raster import numba_threads, prefer_passive_openmp
@@ -584,6 +584,7 @@ class Tracker:
         segs: Sequence[Segmentation],
         frames: Sequence[np.ndarray] | None = None,
         keypoints: Sequence[np.ndarray | None] | None = None,
+        heatmaps: Sequence[KeypointHeatmaps | None] | None = None,
     ) -> FrameResult:
         """Track one time step from already segmented frames (one per camera).
 
@@ -591,11 +592,13 @@ class Tracker:
         them it does not score this time step. ``keypoints`` (per camera ``(19, 3)`` detected
         ``u, v, confidence`` in the camera's image pixels, or None) feed the 2D key-point cue
         (``config.keypoints``, :mod:`tracker.keypoints2d`); without them it does not score
-        this time step.
+        this time step, unless the built-in detector finds them in ``frames``. ``heatmaps``
+        (per camera :class:`tracker.keypoints2d.KeypointHeatmaps` or None) go with given
+        ``keypoints``; the built-in detector's come with its points.
         """
         with _single_thread():  # small batches; the large ones ask for every thread
             self._last_obs = None
-            res = self._process(frame_index, time_s, segs, frames, keypoints)
+            res = self._process(frame_index, time_s, segs, frames, keypoints, heatmaps)
             if self._revising:
                 res.revisions = self._revise(res)
             return res
@@ -728,6 +731,7 @@ class Tracker:
         segs: Sequence[Segmentation],
         frames: Sequence[np.ndarray] | None = None,
         keypoints: Sequence[np.ndarray | None] | None = None,
+        heatmaps: Sequence[KeypointHeatmaps | None] | None = None,
     ) -> FrameResult:
         self._lik.count = 0
         notes: list[str] = []
@@ -751,7 +755,8 @@ class Tracker:
         if self.keypoint_cue is not None:  # 2D key-point cue: this frame's detections
             if keypoints is None and frames is not None and self.detector is not None:
                 keypoints = self.detect_keypoints(frames, segs)
-            self.keypoint_cue.set_frame(self._legs_seen(keypoints, segs))
+                heatmaps = self.detector.last_heatmaps
+            self.keypoint_cue.set_frame(self._legs_seen(keypoints, segs), heatmaps)
         if any(o is not None for o in self.occlusion):
             self._learn_occluders(masks, notes)
         obs = _Observation(int(frame_index), float(time_s), masks)
