@@ -8,6 +8,7 @@ import pytest
 from pydantic import ValidationError
 
 from tests.test_appearance import _paint, _pose
+from tests.tracker_helpers import factored_equals_flat
 from tracker.body import BodyModel
 from tracker.camera import Camera
 from tracker.config import EdgeConfig, TrackerConfig
@@ -133,13 +134,7 @@ def test_factored_equals_unfactored_with_the_cue(body, cameras, scene) -> None:
     base[:, 6:] = np.clip(base[:, 6:] + rng.normal(0, 0.2, (m, N_DOF - 6)), lo[6:], hi[6:])
     left = rng.uniform(lo[list(LEFT_LEG)], hi[list(LEFT_LEG)], (m, na, len(LEFT_LEG)))
     right = rng.uniform(lo[list(RIGHT_LEG)], hi[list(RIGHT_LEG)], (m, nb, len(RIGHT_LEG)))
-    wf = lik.weights_factored(base, left, right)
-    full = np.repeat(np.repeat(base[:, None, None], na, 1), nb, 2)
-    full[..., list(LEFT_LEG)] = left[:, :, None]
-    full[..., list(RIGHT_LEG)] = right[:, None, :]
-    flat = full.reshape(-1, N_DOF)
-    w = lik.weights(flat).reshape(m, na, nb)
-    np.testing.assert_allclose(wf, w, rtol=1e-12, atol=1e-15)
+    flat, w = factored_equals_flat(lik, base, left, right, rtol=1e-12)
     sil = weight_from_counts(lik.counts(flat), lik.measure).reshape(m, na, nb)
     s = cue.scores(body, body.points(flat)).reshape(m, na, nb)
     assert s.std() > 0

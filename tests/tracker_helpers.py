@@ -51,3 +51,19 @@ def walking_clip() -> dict:
     bgs = [textured_background(320, 240, rng) for _ in cams]
     frames = list(render_clip(SilhouetteLikelihood(body, cams), poses, bgs, rng))
     return {"body": body, "cams": cams, "bgs": bgs, "frames": frames}
+
+
+def factored_equals_flat(lik, base, left, right, rtol):
+    """The factored weights of every leg combination equal the weights of the combined poses:
+    the combined poses (flat) and their weights (M, A, B)."""
+    from tracker.dof import LEFT_LEG, N_DOF, RIGHT_LEG
+
+    m, na, nb = base.shape[0], left.shape[1], right.shape[1]
+    wf = lik.weights_factored(base, left, right)
+    full = np.repeat(np.repeat(base[:, None, None], na, 1), nb, 2)
+    full[..., list(LEFT_LEG)] = left[:, :, None]
+    full[..., list(RIGHT_LEG)] = right[:, None, :]
+    flat = full.reshape(-1, N_DOF)
+    w = lik.weights(flat).reshape(m, na, nb)
+    np.testing.assert_allclose(wf, w, rtol=rtol, atol=1e-15)
+    return flat, w

@@ -24,6 +24,11 @@ need NumPy < 2 and an OpenCV build of their own.
   confidence-weighted centre of its heatmap's 7 x 7 cells around it
   (:func:`refine_from_heatmap`). On the benchmark's renderings the leg points' mean error
   falls by a fifth (docs/tracker.md, "Session 42").
+* **The heatmaps kept** (``heatmaps``; the tracker asks for them with two cameras or more, the
+  key-point cue's ``score_multi_camera``): each detection's maps, as probabilities in the key
+  points' order, with the affine map of the camera's pixels to their cells
+  (:class:`tracker.keypoints2d.KeypointHeatmaps`, :attr:`PoseDetector.last_heatmaps`), for the
+  cue to score the model's points on (docs/tracker.md, "Session 43").
 * **The frame mirrored** (``mirror``; opt-in, the tracker uses it with two cameras or more): the
   model also runs on the frame mirrored left to right and the two sets of key points are
   averaged, their sides matched part by part, legs and arms each on its own
