@@ -317,6 +317,10 @@ def test_sample_maps_is_bilinear_and_zero_outside() -> None:
     np.testing.assert_allclose(
         sample_maps(maps, np.array([[[2.5, 1.25], [0.0, 0.0]]]))[0, 0, 0], 1 + 5 + 3.75, rtol=1e-6
     )
+    with pytest.raises(ValueError, match="maps must have shape"):
+        sample_maps(maps[0], cells)
+    with pytest.raises(ValueError, match="cells must have shape"):
+        sample_maps(maps, cells[:, :1])
 
 
 def test_heatmaps_are_checked() -> None:

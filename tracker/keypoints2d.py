@@ -51,6 +51,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
 from gaitwatch.conventions import (
@@ -109,23 +110,36 @@ class KeypointHeatmaps:
 def sample_maps(maps: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Bilinear samples of maps ``(2, h, H, W)`` at cell positions ``cells`` ``(N, h, 2)``
     (col, row): ``(2, N, h)``, the j-th position sampled on each side's j-th map; 0 outside the
-    maps and at NaN."""
-    _, h, rows, cols = maps.shape
-    x, y = cells[..., 0], cells[..., 1]
-    inside = (x >= 0) & (x <= cols - 1) & (y >= 0) & (y <= rows - 1)  # NaN is outside
-    x = np.where(inside, x, 0.0)
-    y = np.where(inside, y, 0.0)
-    x0 = np.minimum(np.floor(x).astype(np.intp), cols - 2)
-    y0 = np.minimum(np.floor(y).astype(np.intp), rows - 2)
-    fx, fy = x - x0, y - y0
-    j = np.arange(h)[None, :]
-    v00 = maps[:, j, y0, x0]
-    v01 = maps[:, j, y0, x0 + 1]
-    v10 = maps[:, j, y0 + 1, x0]
-    v11 = maps[:, j, y0 + 1, x0 + 1]
-    top = v00 + (v01 - v00) * fx
-    bottom = v10 + (v11 - v10) * fx
-    return np.where(inside, top + (bottom - top) * fy, 0.0)
+    maps and at NaN. A numba kernel: numpy's gathers took ten times the points' Gaussian."""
+    maps = np.ascontiguousarray(maps, dtype=np.float32)
+    cells = np.ascontiguousarray(cells, dtype=np.float64)
+    if maps.ndim != 4 or maps.shape[0] != 2 or min(maps.shape[2:]) < 2:
+        raise ValueError(f"maps must have shape (2, h, H >= 2, W >= 2), got {maps.shape}")
+    if cells.ndim != 3 or cells.shape[1:] != (maps.shape[1], 2):
+        raise ValueError(f"cells must have shape (N, {maps.shape[1]}, 2), got {cells.shape}")
+    out = np.empty((2, cells.shape[0], cells.shape[1]))
+    _sample_maps(maps, cells, out)
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _sample_maps(maps, cells, out) -> None:  # pragma: no cover - numba
+    rows, cols = maps.shape[2], maps.shape[3]
+    for n in range(cells.shape[0]):
+        for j in range(cells.shape[1]):
+            x, y = cells[n, j, 0], cells[n, j, 1]
+            if not (x >= 0.0 and x <= cols - 1 and y >= 0.0 and y <= rows - 1):  # NaN: outside
+                out[0, n, j] = 0.0
+                out[1, n, j] = 0.0
+                continue
+            x0 = min(int(x), cols - 2)
+            y0 = min(int(y), rows - 2)
+            fx, fy = x - x0, y - y0
+            for s in range(2):
+                m = maps[s, j]
+                top = m[y0, x0] + (m[y0, x0 + 1] - m[y0, x0]) * fx
+                bottom = m[y0 + 1, x0] + (m[y0 + 1, x0 + 1] - m[y0 + 1, x0]) * fx
+                out[s, n, j] = top + (bottom - top) * fy
 
 
 class KeypointCue:
