@@ -438,6 +438,9 @@ def test_heatmaps_follow_the_config_and_the_frame_state(body, cameras) -> None:
     assert (cfg.score_for(1), cfg.score_for(2), cfg.score_for(3)) == ("point", "heatmap", "heatmap")
     assert KeypointConfig(score="heatmap", score_multi_camera=None).score_for(2) == "heatmap"
     assert KeypointCue(cameras[:1], cfg).score_mode == "point"
+    cue.set_frame(dets, [None, None])  # no camera's maps: scored as points, with beta
+    assert not cue.scores_heatmaps
+    np.testing.assert_allclose(cue.scores(body, pts), legs.scores(body, pts))
     with pytest.raises(ValueError, match="heatmaps for 2 cameras"):
         cue.set_frame(dets, maps[:1])
     with pytest.raises(ValueError, match="KeypointHeatmaps"):

@@ -198,7 +198,7 @@ class KeypointCue:
             raise ValueError(
                 f"expected heatmaps for {len(self.cameras)} cameras, got {len(heatmaps)}"
             )
-        if self.score_mode != "heatmap" or heatmaps is None:
+        if self.score_mode != "heatmap" or heatmaps is None or all(h is None for h in heatmaps):
             heatmaps = None
         elif any(hm is not None and not isinstance(hm, KeypointHeatmaps) for hm in heatmaps):
             raise ValueError("heatmaps must be KeypointHeatmaps or None per camera")
