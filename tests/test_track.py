@@ -545,9 +545,8 @@ def test_redetect_recovers_a_track_that_slid_away(clip: dict, enabled: bool) -> 
     assert res.status == "tracked"
     sacrum_err = np.linalg.norm(res.joints[2, :2] - clip["truth"][1, 2, :2])
     if enabled:
-        # measured 0.11 m at once (0.02 m scoring the detected points as points: the two
-        # cameras' heatmaps leave the grid's coarse poses less to go by, docs/tracker.md
-        # "Session 43"), 0.003 m the next frame
+        # measured 0.11 m at once with the two cameras' heatmaps (0.02 m scoring the detected
+        # points as points; docs/tracker.md "Session 43"), 0.003 m the next frame
         assert sacrum_err < 0.2
         nxt = tracker.process(2, 2 / FPS, clip["frames"][2])
         assert np.linalg.norm(nxt.joints[2, :2] - clip["truth"][2, 2, :2]) < 0.05
