@@ -45,6 +45,13 @@ def _detections(body, pose, cameras, swap=None, conf=1.0) -> list[np.ndarray]:
     return out
 
 
+def _painted_likelihood(body, cameras, pose) -> SilhouetteLikelihood:
+    """The silhouette likelihood of the pose's own painted silhouettes in every camera."""
+    lik = SilhouetteLikelihood(body, cameras)
+    lik.set_silhouettes([_paint(body, pose, c)[1] for c in cameras])
+    return lik
+
+
 def _cue(cameras, dets, typical=None, **kw) -> KeypointCue:
     if "parts" in kw:
         kw["parts_multi_camera"] = None  # the test's parts with any number of cameras
@@ -155,9 +162,7 @@ def test_a_tolerance_scores_near_points_as_matches(body, cameras) -> None:
 )
 def test_factored_equals_unfactored_with_the_cue(body, cameras, parts, tolerance) -> None:
     pose = _pose(body)
-    painted = [_paint(body, pose, c) for c in cameras]
-    lik = SilhouetteLikelihood(body, cameras)
-    lik.set_silhouettes([p[1] for p in painted])
+    lik = _painted_likelihood(body, cameras, pose)
     dets = _detections(body, pose, cameras, swap=(False, True))
     cue = _cue(cameras, dets, typical=0.6, parts=parts, tolerance_fraction=tolerance)
     lik.keypoints = cue
@@ -177,9 +182,7 @@ def test_factored_equals_unfactored_with_the_cue(body, cameras, parts, tolerance
 
 def test_inactive_until_an_estimate_and_without_a_frame(body, cameras) -> None:
     pose = _pose(body)
-    painted = [_paint(body, pose, c) for c in cameras]
-    lik = SilhouetteLikelihood(body, cameras)
-    lik.set_silhouettes([p[1] for p in painted])
+    lik = _painted_likelihood(body, cameras, pose)
     rng = np.random.default_rng(0)
     poses = pose[None] + rng.normal(0, 0.05, (20, N_DOF))
     plain = lik.weights(poses)
@@ -388,9 +391,7 @@ def test_heatmap_side_labels_do_not_matter(body, cameras) -> None:
 @pytest.mark.parametrize("parts", [("legs",), ("legs", "arms")])
 def test_factored_equals_unfactored_with_heatmaps(body, cameras, parts) -> None:
     pose = _pose(body)
-    painted = [_paint(body, pose, c) for c in cameras]
-    lik = SilhouetteLikelihood(body, cameras)
-    lik.set_silhouettes([p[1] for p in painted])
+    lik = _painted_likelihood(body, cameras, pose)
     dets = _detections(body, pose, cameras, swap=(False, True))
     cue = _heat_cue(cameras, dets, _heatmaps(dets, sigma_cells=4.0), typical=0.5, parts=parts)
     lik.keypoints = cue
