@@ -70,6 +70,8 @@ def _cue(cameras, dets, typical=None, **kw) -> KeypointCue:
         ("root_x", 0.1, ("legs",)),
         ("l_elbow_flexion", 0.5, ("legs", "arms")),
         ("r_shoulder_abduction", 0.4, ("arms",)),
+        ("root_x", 0.05, ("hips",)),
+        ("root_roll", 0.15, ("legs", "hips")),
     ],
 )
 def test_score_is_highest_at_the_detected_pose(body, cameras, dof, delta, parts) -> None:
@@ -89,7 +91,7 @@ def test_the_detectors_side_labels_do_not_matter_but_both_legs_count(body, camer
     moved[[DOF["l_knee_flexion"], DOF["r_elbow_flexion"]]] += 0.3
     poses = body.points(np.stack([pose, moved]))
     base = _cue(cameras, _detections(body, pose, cameras)).scores(body, right)
-    for parts in (("legs",), ("legs", "arms")):
+    for parts in (("legs",), ("legs", "arms"), ("legs", "hips")):
         ref = _cue(cameras, _detections(body, pose, cameras), parts=parts).scores(body, poses)
         for swap in ((True, False), (False, True), (True, True)):
             dets = _detections(body, pose, cameras, swap=swap)
@@ -158,7 +160,13 @@ def test_a_tolerance_scores_near_points_as_matches(body, cameras) -> None:
 
 @pytest.mark.parametrize(
     ("parts", "tolerance"),
-    [(("legs",), 0.0), (("legs", "arms"), 0.0), (("arms",), 0.0), (("legs", "arms"), 0.05)],
+    [
+        (("legs",), 0.0),
+        (("legs", "arms"), 0.0),
+        (("arms",), 0.0),
+        (("legs", "arms"), 0.05),
+        (("legs", "hips"), 0.0),
+    ],
 )
 def test_factored_equals_unfactored_with_the_cue(body, cameras, parts, tolerance) -> None:
     pose = _pose(body)
@@ -209,7 +217,8 @@ def test_inactive_until_an_estimate_and_without_a_frame(body, cameras) -> None:
 
 def test_parts_follow_the_camera_count(body, cameras) -> None:
     cfg = KeypointConfig(enabled=True)
-    assert KeypointCue(cameras[:1], cfg).parts == ("legs",)  # measured: arms cost one camera
+    # measured: the arms cost one camera and the hips gain there (docs/tracker.md, "Session 44")
+    assert KeypointCue(cameras[:1], cfg).parts == ("legs", "hips")
     assert KeypointCue(cameras, cfg).parts == ("legs", "arms")
     same = KeypointConfig(enabled=True, parts=("arms",), parts_multi_camera=None)
     assert KeypointCue(cameras, same).parts == ("arms",)
@@ -288,6 +297,7 @@ def _heatmaps(dets, extra=None, sigma_cells=1.5, scale=0.25) -> list[KeypointHea
 
 
 def _heat_cue(cameras, dets, maps, typical=None, **kw) -> KeypointCue:
+    kw.setdefault("parts", ("legs",))
     kw.setdefault("parts_multi_camera", None)
     cue = KeypointCue(cameras, KeypointConfig(enabled=True, score="heatmap", **kw))
     cue.set_frame(dets, maps)

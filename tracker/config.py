@@ -1365,15 +1365,16 @@ class KeypointConfig(_Model):
         ),
     ] = 0.0
     parts: Annotated[
-        tuple[Literal["legs", "arms"], ...],
+        tuple[Literal["legs", "arms", "hips"], ...],
         Field(
             min_length=1,
             description="Scored parts with one camera: legs (knees, ankles, heels, toes), arms "
-            "(shoulders, elbows, wrists)",
+            "(shoulders, elbows, wrists), hips (the hip joint centres; docs/tracker.md, "
+            '"Session 44")',
         ),
-    ] = ("legs",)
+    ] = ("legs", "hips")
     parts_multi_camera: Annotated[
-        tuple[Literal["legs", "arms"], ...] | None,
+        tuple[Literal["legs", "arms", "hips"], ...] | None,
         Field(
             min_length=1,
             description="Scored parts with two cameras or more (None: as parts)",

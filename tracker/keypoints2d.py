@@ -12,20 +12,20 @@ camera to ``Tracker.process(..., keypoints=...)``.
   order, ``(u, v, confidence)`` in that camera's image pixels (the camera file's image size),
   NaN where the detector has no such point; ``None`` for a camera with no detection. Points
   less confident than ``min_confidence`` are unused.
-* **Score** of a pose: each key point of the model's scored parts (:data:`PARTS`: the legs'
-  knee, ankle, heel and toe; with two cameras or more by default also the arms' shoulder,
-  elbow and wrist) is projected into each camera with a detection and scores ``exp(-d^2 / 2
-  s^2)``, ``s`` = ``sigma_fraction`` x the detected person's height in the image (at least
-  ``min_sigma_px``), ``d`` to the detector's point of that kind on the side the model's limb is
-  assigned to, less ``tolerance_fraction`` x that height (opt-in, 0 by default: distances
-  within it score as a match, so the detector's own small errors do not pull the pose).
-  Detectors confuse the sides of a person seen from the side or the back, so per
-  camera and part the better of the two assignments (the model's left limb to the detected
-  left one and right to right, or exchanged) counts: both model legs can never settle on one
-  detected leg. The pose's score is the mean over the detected points and the cameras. Each
-  leg's sums against either detected side depend on that leg only and the arms lie in the base
-  poses, so the score of every leg combination follows from per-leg sums (``scores_factored``)
-  and the IPF's factored weights stay exact.
+* **Score** of a pose: each key point of the model's scored parts (:data:`PARTS`: the legs' knee,
+  ankle, heel and toe; by default with one camera also the hip joint centres, with two cameras or
+  more the arms' shoulder, elbow and wrist) is projected into each camera with a detection and
+  scores ``exp(-d^2 / 2 s^2)``, ``s`` = ``sigma_fraction`` x the detected person's height in the
+  image (at least ``min_sigma_px``), ``d`` to the detector's point of that kind on the side the
+  model's limb is assigned to, less ``tolerance_fraction`` x that height (opt-in, 0 by default:
+  distances within it score as a match, so the detector's own small errors do not pull the pose).
+  Detectors confuse the sides of a person seen from the side or the back, so per camera and part the
+  better of the two assignments (the model's left limb to the detected left one and right to right,
+  or exchanged) counts: both model legs can never settle on one detected leg. The pose's score is
+  the mean over the detected points and the cameras. Each leg's sums against either detected side
+  depend on that leg only and the arms and hips lie in the base poses, so the score of every leg
+  combination follows from per-leg sums (``scores_factored``) and the IPF's factored weights stay
+  exact.
 * **Heatmaps** (config ``score`` with one camera, ``score_multi_camera`` with more; by default
   with two cameras or more): besides its points, the built-in detector gives per landmark a
   heatmap, how likely each place of its crop holds it (:class:`KeypointHeatmaps`). A model
@@ -70,10 +70,11 @@ from tracker.camera import Camera
 LEFT_POINTS: tuple[int, ...] = (11, 13, 15, 17)
 RIGHT_POINTS: tuple[int, ...] = (12, 14, 16, 18)
 #: The scored parts (config ``parts``): their left and right key points. The legs vary in the
-#: IPF's factored weights; the arms (shoulder, elbow, wrist) lie in the base poses.
+#: IPF's factored weights; the arms (shoulder, elbow, wrist) and the hips lie in the base poses.
 PARTS: dict[str, tuple[tuple[int, ...], tuple[int, ...]]] = {
     "legs": (LEFT_POINTS, RIGHT_POINTS),
     "arms": ((3, 5, 7), (4, 6, 8)),
+    "hips": ((9,), (10,)),
 }
 
 
