@@ -158,6 +158,15 @@ def test_a_tolerance_scores_near_points_as_matches(body, cameras) -> None:
         KeypointConfig(tolerance_fraction=-0.1)
 
 
+def _jittered_bases(pose: np.ndarray, rng: np.random.Generator, m: int, sd: float) -> np.ndarray:
+    """``m`` copies of ``pose`` with Gaussian noise (radians) on every DOF but the root, kept
+    inside the walking limits: the base poses of the factoring tests."""
+    lo, hi = JointLimits.profile("walking").arrays()
+    base = np.repeat(pose[None], m, axis=0)
+    base[:, 6:] = np.clip(base[:, 6:] + rng.normal(0, sd, (m, N_DOF - 6)), lo[6:], hi[6:])
+    return base
+
+
 @pytest.mark.parametrize(
     ("parts", "tolerance"),
     [
@@ -177,8 +186,7 @@ def test_factored_equals_unfactored_with_the_cue(body, cameras, parts, tolerance
     rng = np.random.default_rng(3)
     lo, hi = JointLimits.profile("walking").arrays()
     m, na, nb = 3, 4, 5
-    base = np.repeat(pose[None], m, axis=0)
-    base[:, 6:] = np.clip(base[:, 6:] + rng.normal(0, 0.2, (m, N_DOF - 6)), lo[6:], hi[6:])
+    base = _jittered_bases(pose, rng, m, 0.2)
     left = rng.uniform(lo[list(LEFT_LEG)], hi[list(LEFT_LEG)], (m, na, len(LEFT_LEG)))
     right = rng.uniform(lo[list(RIGHT_LEG)], hi[list(RIGHT_LEG)], (m, nb, len(RIGHT_LEG)))
     flat, w = factored_equals_flat(lik, base, left, right, rtol=1e-12)
@@ -408,8 +416,7 @@ def test_factored_equals_unfactored_with_heatmaps(body, cameras, parts) -> None:
     rng = np.random.default_rng(5)
     lo, hi = JointLimits.profile("walking").arrays()
     m, na, nb = 3, 4, 5
-    base = np.repeat(pose[None], m, axis=0)
-    base[:, 6:] = np.clip(base[:, 6:] + rng.normal(0, 0.1, (m, N_DOF - 6)), lo[6:], hi[6:])
+    base = _jittered_bases(pose, rng, m, 0.1)
     left = np.clip(
         pose[list(LEFT_LEG)] + rng.normal(0, 0.15, (m, na, len(LEFT_LEG))),
         lo[list(LEFT_LEG)],
