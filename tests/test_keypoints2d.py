@@ -175,6 +175,7 @@ def _jittered_bases(pose: np.ndarray, rng: np.random.Generator, m: int, sd: floa
         (("arms",), 0.0),
         (("legs", "arms"), 0.05),
         (("legs", "hips"), 0.0),
+        (("legs", "arms", "hips"), 0.0),
     ],
 )
 def test_factored_equals_unfactored_with_the_cue(body, cameras, parts, tolerance) -> None:
@@ -194,6 +195,40 @@ def test_factored_equals_unfactored_with_the_cue(body, cameras, parts, tolerance
     s = cue.scores(body, body.points(flat)).reshape(m, na, nb)
     assert s.std() > 0
     np.testing.assert_allclose(w, sil * np.maximum(s, 1e-6) / 0.6, rtol=1e-12)  # beta 1
+
+
+@pytest.mark.parametrize("heat", [False, True])
+def test_parts_scored_together_as_each_alone(body, cameras, heat) -> None:
+    """The parts are scored in one pass per camera: the score of several parts is each part's
+    own score weighted by its detected points, each part's sides assigned on their own, with
+    points and whole parts missing."""
+    pose = _pose(body)
+    rng = np.random.default_rng(11)
+    poses = np.repeat(pose[None], 6, axis=0)
+    poses[1:, 6:] += rng.normal(0, 0.15, (5, N_DOF - 6))
+    poses[1:, :3] += rng.normal(0, 0.05, (5, 3))
+    pts = body.points(poses)
+    dets = _detections(body, pose, cameras)
+    left, right = (list(side) for side in PARTS["legs"])
+    dets[0][left + right] = dets[0][right + left]  # the legs' labels exchanged, not the arms'
+    dets[0][[5, 12]] = np.nan  # an elbow and a knee not found
+    dets[1][[9, 10]] = np.nan  # no hip at all in the second camera
+    parts = ("legs", "arms", "hips")
+    for k in range(len(cameras)):
+        cams, det = cameras[k : k + 1], dets[k : k + 1]
+        maps = _heatmaps(det) if heat else None
+
+        def cue(p, cams=cams, det=det, maps=maps):
+            return _heat_cue(cams, det, maps, parts=p) if heat else _cue(cams, det, parts=p)
+
+        found = {
+            p: int(np.isfinite(det[0][list(sum(PARTS[p], ()))]).all(axis=1).sum()) for p in parts
+        }
+        assert found["hips"] == (2 if k == 0 else 0)
+        alone = sum(cue((p,)).scores(body, pts) * n for p, n in found.items() if n)
+        together = cue(parts).scores(body, pts)
+        assert together.std() > 0.01
+        np.testing.assert_allclose(together, alone / sum(found.values()), rtol=1e-12)
 
 
 def test_inactive_until_an_estimate_and_without_a_frame(body, cameras) -> None:
@@ -406,7 +441,7 @@ def test_heatmap_side_labels_do_not_matter(body, cameras) -> None:
     np.testing.assert_allclose(got, ref, rtol=1e-6)
 
 
-@pytest.mark.parametrize("parts", [("legs",), ("legs", "arms")])
+@pytest.mark.parametrize("parts", [("legs",), ("legs", "arms"), ("hips", "legs", "arms")])
 def test_factored_equals_unfactored_with_heatmaps(body, cameras, parts) -> None:
     pose = _pose(body)
     lik = _painted_likelihood(body, cameras, pose)

@@ -175,6 +175,8 @@ class KeypointCue:
         #: Per camera None or, per part with a detected point, what the scores need
         #: (:meth:`_prepare`).
         self._prep: list[dict[str, tuple] | None] | None = None
+        #: Per group of parts its per-camera entries for this frame (:meth:`_group`).
+        self._groups: dict[tuple[str, ...], list[tuple | None]] = {}
         #: Per camera None or the detected nose and shoulders in units of the person's height
         #: (:func:`_face_points`), for :meth:`facing`; None without any.
         self._face: list[np.ndarray | None] | None = None
@@ -264,10 +266,12 @@ class KeypointCue:
                 parts[part] = (sels, filled, valid, float(found.sum()), maps)
             prep.append(parts)
         self._prep = prep
+        self._groups = {}
 
     def clear_frame(self) -> None:
         """No detections this frame: the cue does not score it."""
         self._det = self._sigma = self._tol = self._prep = None
+        self._groups = {}
         self._heat = None
         self._face = None
 
@@ -328,56 +332,96 @@ class KeypointCue:
         return total / weight if weight > 0 else None
 
     # -- scores ----------------------------------------------------------------------------
+    def _group(self, parts: tuple[str, ...]) -> list[tuple | None]:
+        """Per camera None (no detected point of ``parts``) or ``parts``' prepared entries side
+        by side, so one projection and one pass score them all: the model's point indices per
+        side, the detected points ``(2, H, 2)``, which are there ``(2, H)``, the part each of
+        the ``H`` columns belongs to and where each part's run of columns starts, each part's
+        number of detected points ``(len(parts),)``, and the heatmaps with their map (or None).
+        Built once per frame and group."""
+        cached = self._groups.get(parts)
+        if cached is not None:
+            return cached
+        group: list[tuple | None] = []
+        for prep in self._prep or ():
+            entries = [(i, prep.get(p)) for i, p in enumerate(parts)] if prep else []
+            entries = [(i, e) for i, e in entries if e is not None]
+            if not entries:
+                group.append(None)
+                continue
+            sels = tuple(sum((e[0][side] for _, e in entries), []) for side in (0, 1))
+            filled = np.concatenate([e[1] for _, e in entries], axis=1)
+            valid = np.concatenate([e[2] for _, e in entries], axis=1)
+            which = np.array([i for i, _ in entries])
+            starts = np.cumsum([0] + [len(e[0][0]) for _, e in entries[:-1]])
+            counts = np.zeros(len(parts))
+            counts[which] = [e[3] for _, e in entries]
+            maps = None
+            if entries[0][1][4] is not None:
+                maps = (
+                    np.ascontiguousarray(np.concatenate([e[4][0] for _, e in entries], axis=1)),
+                    entries[0][1][4][1],
+                )
+            group.append((sels, filled, valid, which, starts, counts, maps))
+        self._groups[parts] = group
+        return group
+
     def _side_sums(
-        self, pts: np.ndarray, part: str, sides: tuple[int, ...]
-    ) -> tuple[list[np.ndarray], np.ndarray]:
-        """Per side in ``sides`` (0 left, 1 right) of a part the summed point scores ``(2, N,
-        K)`` of poses given their model points ``(N, P, 3)``, against the detector's left
-        (``[0]``) and right (``[1]``) points of the part, and the number of the part's detected
-        points per camera ``(K,)`` (each is scored once under either assignment of the sides).
-        One projection per camera serves every side asked for."""
-        n = pts.shape[0]
-        out = [np.zeros((2, n, len(self.cameras))) for _ in sides]
-        counts = np.zeros(len(self.cameras))
-        for k, (cam, prep) in enumerate(zip(self.cameras, self._prep or (), strict=False)):
-            entry = None if prep is None else prep.get(part)
+        self, pts: np.ndarray, parts: tuple[str, ...], sides: tuple[int, ...]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Per side in ``sides`` (0 left, 1 right) and part of ``parts`` the summed point scores
+        of poses given their model points ``(N, P, 3)`` against the detector's left and right
+        points of the part: ``(len(sides), len(parts), 2 detected sides, N, K)``; and the number
+        of each part's detected points per camera ``(len(parts), K)`` (each is scored once under
+        either assignment of the sides). One projection and one pass per camera serve every
+        part and side asked for."""
+        n, n_cams = pts.shape[0], len(self.cameras)
+        out = np.zeros((len(sides), len(parts), 2, n, n_cams))
+        counts = np.zeros((len(parts), n_cams))
+        for k, (cam, entry) in enumerate(zip(self.cameras, self._group(parts), strict=False)):
             if entry is None:
                 continue
-            sels, filled, valid, count, maps = entry
+            sels, filled, valid, which, starts, count, maps = entry
             h = len(sels[0])
             cols = sels[sides[0]] if len(sides) == 1 else sels[0] + sels[1]
-            uv_all = cam.project(pts[:, cols])
-            for j, sums in enumerate(out):
-                uv = uv_all[:, j * h : (j + 1) * h]  # (N, h, 2)
-                if maps is not None:  # the detected side's heatmap where the point projects
-                    cells = uv @ maps[1][:, :2].T + maps[1][:, 2]
-                    g = sample_maps(maps[0], cells)  # (2 detected sides, N, h)
-                else:
-                    diff = uv[None] - filled[:, None]  # (2 detected sides, N, h, 2)
-                    d = np.sqrt(diff[..., 0] ** 2 + diff[..., 1] ** 2)  # as np.linalg.norm
-                    if self._tol[k] > 0:  # within the tolerance: a match
-                        d = np.maximum(d - self._tol[k], 0.0)
-                    g = np.exp(-0.5 * (d / self._sigma[k]) ** 2)
-                g = np.where(valid[:, None] & (g == g), g, 0.0)  # NaN: a point behind the camera
-                sums[:, :, k] = g.sum(axis=2)
-            counts[k] = count
+            uv = cam.project(pts[:, cols]).reshape(n, len(sides), h, 2).transpose(1, 0, 2, 3)
+            if maps is not None:  # the detected side's heatmap where the point projects
+                cells = uv @ maps[1][:, :2].T + maps[1][:, 2]  # (sides, N, h, 2)
+                g = sample_maps(maps[0], cells.reshape(-1, h, 2))  # (2 detected, sides * N, h)
+                g = g.reshape(2, len(sides), n, h).transpose(1, 0, 2, 3)
+            else:
+                diff = uv[:, None] - filled[None, :, None]  # (sides, 2 detected, N, h, 2)
+                d = np.sqrt(diff[..., 0] ** 2 + diff[..., 1] ** 2)  # as np.linalg.norm
+                if self._tol[k] > 0:  # within the tolerance: a match
+                    d = np.maximum(d - self._tol[k], 0.0)
+                g = np.exp(-0.5 * (d / self._sigma[k]) ** 2)
+            g = np.where(valid[:, None] & (g == g), g, 0.0)  # NaN: a point behind the camera
+            out[..., k][:, which] = np.add.reduceat(g, starts, axis=3).transpose(0, 3, 1, 2)
+            counts[:, k] = count
         return out, counts
 
-    def _best(self, pts_left: np.ndarray, pts_right: np.ndarray, part: str, shape=None):
-        """Per camera the part's summed score under the better of the two assignments of the
-        model's sides to the detected ones ``(..., K)``, and its detected points ``(K,)``; the
-        left side's sums are taken from ``pts_left``, the right's from ``pts_right``, reshaped
-        to ``shape`` (left) and the broadcasting shape of the right when given."""
+    def _best(
+        self, pts_left: np.ndarray, pts_right: np.ndarray, parts: tuple[str, ...], shape=None
+    ):
+        """Per camera the summed score of ``parts``, each part under the better of the two
+        assignments of the model's sides to the detected ones ``(..., K)``, and their detected
+        points ``(K,)``; the left side's sums are taken from ``pts_left``, the right's from
+        ``pts_right``, reshaped to ``shape`` (left) and the broadcasting shape of the right
+        when given."""
         if pts_left is pts_right:
-            (sl, sr), counts = self._side_sums(pts_left, part, (0, 1))
+            (sl, sr), counts = self._side_sums(pts_left, parts, (0, 1))
         else:
-            (sl,), counts = self._side_sums(pts_left, part, (0,))
-            (sr,), _ = self._side_sums(pts_right, part, (1,))
+            (sl,), counts = self._side_sums(pts_left, parts, (0,))
+            (sr,), _ = self._side_sums(pts_right, parts, (1,))
         if shape is not None:
-            k = sl.shape[2]
-            sl = sl.reshape(2, shape[0], -1, 1, k)
-            sr = sr.reshape(2, shape[0], 1, -1, k)
-        return np.maximum(sl[0] + sr[1], sl[1] + sr[0]), counts
+            k = sl.shape[-1]
+            sl = sl.reshape(len(parts), 2, shape[0], -1, 1, k)
+            sr = sr.reshape(len(parts), 2, shape[0], 1, -1, k)
+        best = np.maximum(sl[:, 0] + sr[:, 1], sl[:, 1] + sr[:, 0])
+        total = best[0]
+        for b in best[1:]:
+            total = total + b
+        return total, counts.sum(axis=0)
 
     def _mean(self, total: np.ndarray, counts: np.ndarray) -> np.ndarray:
         """The mean point score over the cameras with detections: ``total`` (..., K)."""
@@ -386,11 +430,7 @@ class KeypointCue:
 
     def scores(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
         """Scores ``(N,)`` in [0, 1] of poses given their model points ``(N, P, 3)``."""
-        total = np.zeros((pts.shape[0], len(self.cameras)))
-        counts = np.zeros(len(self.cameras))
-        for part in self.parts:
-            best, cnt = self._best(pts, pts, part)
-            total, counts = total + best, counts + cnt
+        total, counts = self._best(pts, pts, self.parts)
         return self._mean(total, counts)
 
     def scores_factored(
@@ -399,17 +439,17 @@ class KeypointCue:
         """Scores ``(M, A, B)`` of every leg combination (see
         ``SilhouetteLikelihood.weights_factored``) from the points of the base poses ``(M, P,
         3)`` and of the leg variants ``(M * A, P, 3)``, ``(M * B, P, 3)``; equal to
-        :meth:`scores` of the combined poses (the arms lie in the base)."""
+        :meth:`scores` of the combined poses (the arms and hips lie in the base)."""
         m = pts_base.shape[0]
         total = np.zeros((m, 1, 1, len(self.cameras)))
         counts = np.zeros(len(self.cameras))
-        for part in self.parts:
-            if part == "legs":
-                best, cnt = self._best(pts_left, pts_right, part, shape=(m,))
-            else:
-                best, cnt = self._best(pts_base, pts_base, part)
-                best = best[:, None, None, :]
+        if "legs" in self.parts:
+            best, cnt = self._best(pts_left, pts_right, ("legs",), shape=(m,))
             total, counts = total + best, counts + cnt
+        base = tuple(p for p in self.parts if p != "legs")
+        if base:
+            best, cnt = self._best(pts_base, pts_base, base)
+            total, counts = total + best[:, None, None, :], counts + cnt
         return self._mean(total, counts)
 
     def factor(self, scores: np.ndarray) -> np.ndarray:
