@@ -231,6 +231,52 @@ def test_parts_scored_together_as_each_alone(body, cameras, heat) -> None:
         np.testing.assert_allclose(together, alone / sum(found.values()), rtol=1e-12)
 
 
+def test_scores_match_a_plain_reference_through_a_distorted_camera(body) -> None:
+    """The cue's kernel against the score written out in numpy: Camera.project (OpenCV's
+    distortion), the Gaussian of each distance, the better assignment of the sides per part,
+    the mean over the detected points; a point behind the camera scores 0."""
+    cam = Camera.look_at(
+        name="wide",
+        position=[3.0, -2.5, 1.7],
+        target=[0, 0, 0.9],
+        dist=[-0.25, 0.08, 0.001, -0.002, -0.01],
+    ).scaled(*SIZE)
+    pose = _pose(body)
+    rng = np.random.default_rng(4)
+    poses = np.repeat(pose[None], 8, axis=0)
+    poses[1:, 6:] += rng.normal(0, 0.2, (7, N_DOF - 6))
+    poses[1:, :2] += rng.normal(0, 0.1, (7, 2))
+    pts = body.points(poses)
+    det = _detections(body, pose, [cam])[0]
+    det[:, :2] += rng.normal(0, 3.0, (19, 2))
+    det[[13, 17, 4]] = np.nan  # the left ankle and toe, a shoulder: not found
+    parts = ("legs", "arms", "hips")
+    cue = _cue([cam], [det], parts=parts)
+    kp = body.forward(poses)  # (N, 19, 3) key points
+    uv = cam.project(kp)
+    height = np.nanmax(det[:, 1]) - np.nanmin(det[:, 1])
+    sigma = max(0.08 * height, 2.0)
+
+    def side_sum(model_side, det_side, part):
+        g = np.zeros(len(poses))
+        for m, d in zip(PARTS[part][model_side], PARTS[part][det_side], strict=True):
+            if np.isfinite(det[d]).all():
+                dist = np.linalg.norm(uv[:, m] - det[d, :2], axis=1)
+                g += np.exp(-0.5 * (dist / sigma) ** 2)
+        return g
+
+    total = sum(
+        np.maximum(side_sum(0, 0, p) + side_sum(1, 1, p), side_sum(0, 1, p) + side_sum(1, 0, p))
+        for p in parts
+    )
+    found = sum(np.isfinite(det[list(sum(PARTS[p], ()))]).all(axis=1).sum() for p in parts)
+    np.testing.assert_allclose(cue.scores(body, pts), total / found, rtol=1e-10)
+    # the whole body moved behind the camera: nothing projects, the score is 0
+    behind = 2 * cam.center - pts  # mirrored through the optical centre
+    assert np.isnan(cam.project(behind[:, :19])).all()
+    np.testing.assert_array_equal(cue.scores(body, behind), 0.0)
+
+
 def test_inactive_until_an_estimate_and_without_a_frame(body, cameras) -> None:
     pose = _pose(body)
     lik = _painted_likelihood(body, cameras, pose)

@@ -86,6 +86,11 @@ def test_projection_matches_camera(cameras: list[Camera]) -> None:
         ref = cam.project(pts)
         got = np.array([raster.project_point(*p, row, 0)[:2] for p in pts])
         np.testing.assert_allclose(got, ref, atol=1e-9)
+        uv = np.array([raster.project_uv(*p, row, 0) for p in pts])  # (u, v, in front)
+        assert uv[:, 2].all()
+        np.testing.assert_allclose(uv[:, :2], ref, atol=1e-9)
+        behind = 2 * cam.center - pts[0]  # mirrored through the optical centre
+        assert np.isnan(cam.project(behind)).all() and not raster.project_uv(*behind, row, 0)[2]
     # the disc radii agree with the reference's (central differences) to 1e-4
     body = BodyModel()
     a, b = body.capsules(body.neutral_pose())

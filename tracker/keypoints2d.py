@@ -63,6 +63,7 @@ from gaitwatch.conventions import (
     R_HIP,
     R_SHOULDER,
 )
+from tracker import raster
 from tracker.body import BodyModel
 from tracker.camera import Camera
 
@@ -123,24 +124,67 @@ def sample_maps(maps: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return out
 
 
+@nb.njit(cache=True, inline="always")
+def _bilinear(m, x: float, y: float) -> float:  # pragma: no cover - numba
+    """Map ``m`` ``(H, W)`` sampled bilinearly at column ``x``, row ``y``; 0 outside and at
+    NaN."""
+    rows, cols = m.shape
+    if not (x >= 0.0 and x <= cols - 1 and y >= 0.0 and y <= rows - 1):  # NaN: outside
+        return 0.0
+    x0 = min(int(x), cols - 2)
+    y0 = min(int(y), rows - 2)
+    fx, fy = x - x0, y - y0
+    top = m[y0, x0] + (m[y0, x0 + 1] - m[y0, x0]) * fx
+    bottom = m[y0 + 1, x0] + (m[y0 + 1, x0 + 1] - m[y0 + 1, x0]) * fx
+    return top + (bottom - top) * fy
+
+
 @nb.njit(cache=True, nogil=True)
 def _sample_maps(maps, cells, out) -> None:  # pragma: no cover - numba
-    rows, cols = maps.shape[2], maps.shape[3]
     for n in range(cells.shape[0]):
         for j in range(cells.shape[1]):
-            x, y = cells[n, j, 0], cells[n, j, 1]
-            if not (x >= 0.0 and x <= cols - 1 and y >= 0.0 and y <= rows - 1):  # NaN: outside
-                out[0, n, j] = 0.0
-                out[1, n, j] = 0.0
-                continue
-            x0 = min(int(x), cols - 2)
-            y0 = min(int(y), rows - 2)
-            fx, fy = x - x0, y - y0
             for s in range(2):
-                m = maps[s, j]
-                top = m[y0, x0] + (m[y0, x0 + 1] - m[y0, x0]) * fx
-                bottom = m[y0 + 1, x0] + (m[y0 + 1, x0 + 1] - m[y0 + 1, x0]) * fx
-                out[s, n, j] = top + (bottom - top) * fy
+                out[s, n, j] = _bilinear(maps[s, j], cells[n, j, 0], cells[n, j, 1])
+
+
+@nb.njit(cache=True, nogil=True)
+def _cue_sums(
+    pts, cols, cams, k, filled, valid, part_of, sigma, tol, maps, to_map, use_maps, out
+) -> None:  # pragma: no cover - numba
+    """Adds to ``out`` ``(sides, parts, 2 detected sides, N)`` each pose's point scores through
+    packed camera ``k``: pose ``n``'s model point ``cols[s, j]`` (``pts`` ``(N, P, 3)``) against
+    the detected point ``j`` of either side (``filled`` ``(2, H, 2)``, where ``valid``), into
+    the slot of its part ``part_of[j]``; the Gaussian of the distance (less ``tol``) of spread
+    ``sigma``, or with ``use_maps`` the detected side's map ``maps[d, j]`` sampled bilinearly
+    where ``to_map`` puts the pixel (0 outside). A point behind the camera scores 0."""
+    for n in range(pts.shape[0]):
+        for s in range(cols.shape[0]):
+            for j in range(cols.shape[1]):
+                q = cols[s, j]
+                u, v, ok = raster.project_uv(pts[n, q, 0], pts[n, q, 1], pts[n, q, 2], cams, k)
+                if not ok:
+                    continue
+                slot = part_of[j]
+                if use_maps:
+                    x = to_map[0, 0] * u + to_map[0, 1] * v + to_map[0, 2]
+                    y = to_map[1, 0] * u + to_map[1, 1] * v + to_map[1, 2]
+                    for d in range(2):
+                        if valid[d, j]:
+                            out[s, slot, d, n] += _bilinear(maps[d, j], x, y)
+                else:
+                    for d in range(2):
+                        if valid[d, j]:
+                            du = u - filled[d, j, 0]
+                            dv = v - filled[d, j, 1]
+                            dist = np.sqrt(du * du + dv * dv)
+                            if tol > 0.0:
+                                dist = max(dist - tol, 0.0)
+                            r = dist / sigma
+                            out[s, slot, d, n] += np.exp(-0.5 * r * r)
+
+
+_NO_MAPS = np.zeros((2, 1, 2, 2), dtype=np.float32)
+_NO_MAP = np.zeros((2, 3))
 
 
 class KeypointCue:
@@ -157,6 +201,7 @@ class KeypointCue:
     def __init__(self, cameras: Sequence[Camera], config) -> None:
         self.config = config
         self.cameras = list(cameras)
+        self._cams = raster.pack_cameras(self.cameras)[0]  # for the scores' kernel
         multi = len(self.cameras) > 1 and config.parts_multi_camera is not None
         self.parts = tuple(config.parts_multi_camera if multi else config.parts)
         #: How points are scored: "point" or "heatmap" (with the detector's heatmaps).
@@ -334,11 +379,12 @@ class KeypointCue:
     # -- scores ----------------------------------------------------------------------------
     def _group(self, parts: tuple[str, ...]) -> list[tuple | None]:
         """Per camera None (no detected point of ``parts``) or ``parts``' prepared entries side
-        by side, so one projection and one pass score them all: the model's point indices per
-        side, the detected points ``(2, H, 2)``, which are there ``(2, H)``, the part each of
-        the ``H`` columns belongs to and where each part's run of columns starts, each part's
-        number of detected points ``(len(parts),)``, and the heatmaps with their map (or None).
-        Built once per frame and group."""
+        by side, so one pass of :func:`_cue_sums` scores them all: the model's point indices
+        ``(sides, H)`` per tuple of sides (``(0,)``, ``(1,)``, ``(0, 1)``), the detected points
+        ``(2, H, 2)``, which are there ``(2, H)``, the slot in ``parts`` of the part each of the
+        ``H`` columns belongs to, each part's number of detected points ``(len(parts),)``, and
+        the heatmaps ``(2, H, rows, cols)`` with their map (or None). Built once per frame and
+        group."""
         cached = self._groups.get(parts)
         if cached is not None:
             return cached
@@ -352,17 +398,22 @@ class KeypointCue:
             sels = tuple(sum((e[0][side] for _, e in entries), []) for side in (0, 1))
             filled = np.concatenate([e[1] for _, e in entries], axis=1)
             valid = np.concatenate([e[2] for _, e in entries], axis=1)
-            which = np.array([i for i, _ in entries])
-            starts = np.cumsum([0] + [len(e[0][0]) for _, e in entries[:-1]])
+            which = [i for i, _ in entries]
+            part_of = np.repeat(which, [len(e[0][0]) for _, e in entries]).astype(np.int64)
+            cols = {
+                sides: np.array([sels[side] for side in sides], dtype=np.int64)
+                for sides in ((0,), (1,), (0, 1))
+            }
             counts = np.zeros(len(parts))
             counts[which] = [e[3] for _, e in entries]
             maps = None
             if entries[0][1][4] is not None:
                 maps = (
                     np.ascontiguousarray(np.concatenate([e[4][0] for _, e in entries], axis=1)),
-                    entries[0][1][4][1],
+                    np.ascontiguousarray(entries[0][1][4][1], dtype=np.float64),
                 )
-            group.append((sels, filled, valid, which, starts, counts, maps))
+            filled = np.ascontiguousarray(filled, dtype=np.float64)
+            group.append((cols, filled, np.ascontiguousarray(valid), part_of, counts, maps))
         self._groups[parts] = group
         return group
 
@@ -373,30 +424,23 @@ class KeypointCue:
         of poses given their model points ``(N, P, 3)`` against the detector's left and right
         points of the part: ``(len(sides), len(parts), 2 detected sides, N, K)``; and the number
         of each part's detected points per camera ``(len(parts), K)`` (each is scored once under
-        either assignment of the sides). One projection and one pass per camera serve every
-        part and side asked for."""
+        either assignment of the sides). One pass of the numba kernel :func:`_cue_sums` per
+        camera serves every part and side asked for."""
+        pts = np.ascontiguousarray(pts, dtype=np.float64)
         n, n_cams = pts.shape[0], len(self.cameras)
         out = np.zeros((len(sides), len(parts), 2, n, n_cams))
         counts = np.zeros((len(parts), n_cams))
-        for k, (cam, entry) in enumerate(zip(self.cameras, self._group(parts), strict=False)):
+        for k, entry in enumerate(self._group(parts)):
             if entry is None:
                 continue
-            sels, filled, valid, which, starts, count, maps = entry
-            h = len(sels[0])
-            cols = sels[sides[0]] if len(sides) == 1 else sels[0] + sels[1]
-            uv = cam.project(pts[:, cols]).reshape(n, len(sides), h, 2).transpose(1, 0, 2, 3)
-            if maps is not None:  # the detected side's heatmap where the point projects
-                cells = uv @ maps[1][:, :2].T + maps[1][:, 2]  # (sides, N, h, 2)
-                g = sample_maps(maps[0], cells.reshape(-1, h, 2))  # (2 detected, sides * N, h)
-                g = g.reshape(2, len(sides), n, h).transpose(1, 0, 2, 3)
-            else:
-                diff = uv[:, None] - filled[None, :, None]  # (sides, 2 detected, N, h, 2)
-                d = np.sqrt(diff[..., 0] ** 2 + diff[..., 1] ** 2)  # as np.linalg.norm
-                if self._tol[k] > 0:  # within the tolerance: a match
-                    d = np.maximum(d - self._tol[k], 0.0)
-                g = np.exp(-0.5 * (d / self._sigma[k]) ** 2)
-            g = np.where(valid[:, None] & (g == g), g, 0.0)  # NaN: a point behind the camera
-            out[..., k][:, which] = np.add.reduceat(g, starts, axis=3).transpose(0, 3, 1, 2)
+            cols, filled, valid, part_of, count, maps = entry
+            sums = np.zeros((len(sides), len(parts), 2, n))
+            grids, to_map = maps if maps is not None else (_NO_MAPS, _NO_MAP)
+            _cue_sums(
+                pts, cols[sides], self._cams, k, filled, valid, part_of,
+                float(self._sigma[k]), float(self._tol[k]), grids, to_map, maps is not None, sums,
+            )  # fmt: skip
+            out[..., k] = sums
             counts[:, k] = count
         return out, counts
 

@@ -189,6 +189,25 @@ def project_point(
 
 
 @nb.njit(cache=True, inline="always")
+def project_uv(
+    px: float, py: float, pz: float, cams: np.ndarray, k: int
+) -> tuple[float, float, bool]:
+    """Pixel ``(u, v)`` of world point (px, py, pz) through packed camera k, as
+    :meth:`tracker.camera.Camera.project` gives it, and whether it lies in front of the camera
+    (``z > 0``; Camera.project gives NaN otherwise)."""
+    xc = cams[k, 0] * px + cams[k, 1] * py + cams[k, 2] * pz + cams[k, 9]
+    yc = cams[k, 3] * px + cams[k, 4] * py + cams[k, 5] * pz + cams[k, 10]
+    zc = cams[k, 6] * px + cams[k, 7] * py + cams[k, 8] * pz + cams[k, 11]
+    if not zc > 0.0:
+        return 0.0, 0.0, False
+    x = xc / zc
+    y = yc / zc
+    if cams[k, 31] != 0.0:
+        x, y = _distort(x, y, cams, k)
+    return cams[k, 12] * x + cams[k, 16] * y + cams[k, 14], cams[k, 13] * y + cams[k, 15], True
+
+
+@nb.njit(cache=True, inline="always")
 def project_capsule(
     pts: np.ndarray, i: int, cap_ab: np.ndarray, c: int, cams: np.ndarray, k: int
 ) -> tuple[float, float, float, float, float, float, bool]:
