@@ -167,6 +167,17 @@ def _jittered_bases(pose: np.ndarray, rng: np.random.Generator, m: int, sd: floa
     return base
 
 
+def _moved_poses(
+    pose: np.ndarray, rng: np.random.Generator, n: int, sd: float, root_sd: float, root: int
+) -> np.ndarray:
+    """``pose`` and ``n - 1`` copies with Gaussian noise on every joint angle (``sd``, radians)
+    and on the first ``root`` root DOFs (``root_sd``, metres): poses to score."""
+    poses = np.repeat(pose[None], n, axis=0)
+    poses[1:, 6:] += rng.normal(0, sd, (n - 1, N_DOF - 6))
+    poses[1:, :root] += rng.normal(0, root_sd, (n - 1, root))
+    return poses
+
+
 @pytest.mark.parametrize(
     ("parts", "tolerance"),
     [
@@ -203,11 +214,7 @@ def test_parts_scored_together_as_each_alone(body, cameras, heat) -> None:
     own score weighted by its detected points, each part's sides assigned on their own, with
     points and whole parts missing."""
     pose = _pose(body)
-    rng = np.random.default_rng(11)
-    poses = np.repeat(pose[None], 6, axis=0)
-    poses[1:, 6:] += rng.normal(0, 0.15, (5, N_DOF - 6))
-    poses[1:, :3] += rng.normal(0, 0.05, (5, 3))
-    pts = body.points(poses)
+    pts = body.points(_moved_poses(pose, np.random.default_rng(11), 6, 0.15, 0.05, 3))
     dets = _detections(body, pose, cameras)
     left, right = (list(side) for side in PARTS["legs"])
     dets[0][left + right] = dets[0][right + left]  # the legs' labels exchanged, not the arms'
@@ -243,9 +250,7 @@ def test_scores_match_a_plain_reference_through_a_distorted_camera(body) -> None
     ).scaled(*SIZE)
     pose = _pose(body)
     rng = np.random.default_rng(4)
-    poses = np.repeat(pose[None], 8, axis=0)
-    poses[1:, 6:] += rng.normal(0, 0.2, (7, N_DOF - 6))
-    poses[1:, :2] += rng.normal(0, 0.1, (7, 2))
+    poses = _moved_poses(pose, rng, 8, 0.2, 0.1, 2)
     pts = body.points(poses)
     det = _detections(body, pose, [cam])[0]
     det[:, :2] += rng.normal(0, 3.0, (19, 2))
