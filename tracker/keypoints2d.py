@@ -217,9 +217,6 @@ class KeypointCue:
         self._tol: np.ndarray | None = None  # per camera (K,), pixels
         #: Per camera None or the detector's heatmaps (config ``score = "heatmap"``).
         self._heat: list[KeypointHeatmaps | None] | None = None
-        #: Per camera None or, per part with a detected point, what the scores need
-        #: (:meth:`_prepare`).
-        self._prep: list[dict[str, tuple] | None] | None = None
         #: Per group of parts its per-camera entries for this frame (:meth:`_group`).
         self._groups: dict[tuple[str, ...], list[tuple | None]] = {}
         #: Per camera None or the detected nose and shoulders in units of the person's height
@@ -281,41 +278,12 @@ class KeypointCue:
         else:
             self._det, self._sigma, self._tol = det, sigma, tol
             self._heat = None if heatmaps is None else list(heatmaps)
-            self._prepare()
+            self._groups = {}
         self._face = face if any(f is not None for f in face) else None
-
-    def _prepare(self) -> None:
-        """Per camera and part the detected kinds of point (either side), the model's point
-        indices of each side for them, the detected points ``(2, H, 2)`` (0 where missing),
-        which are there ``(2, H)``, how many, and their heatmaps ``(2, H, rows, cols)`` with
-        the map of the image's pixels to their cells (None: scored by distance)."""
-        prep: list[dict[str, tuple] | None] = []
-        heat = self._heat or [None] * len(self.cameras)
-        for det, hm in zip(self._det or (), heat, strict=False):
-            if det is None:
-                prep.append(None)
-                continue
-            parts: dict[str, tuple] = {}
-            for part, pts in det.items():
-                found = np.isfinite(pts).all(axis=2)  # (2, points)
-                have = np.flatnonzero(found.any(axis=0))  # a point of either side
-                if not len(have):
-                    continue
-                sels = tuple([PARTS[part][side][j] for j in have] for side in (0, 1))
-                valid = found[:, have]
-                filled = np.where(valid[..., None], pts[:, have], 0.0)
-                maps = None
-                if hm is not None:
-                    idx = np.array([[PARTS[part][side][j] for j in have] for side in (0, 1)])
-                    maps = (np.asarray(hm.maps, dtype=np.float32)[idx], hm.to_map)
-                parts[part] = (sels, filled, valid, float(found.sum()), maps)
-            prep.append(parts)
-        self._prep = prep
-        self._groups = {}
 
     def clear_frame(self) -> None:
         """No detections this frame: the cue does not score it."""
-        self._det = self._sigma = self._tol = self._prep = None
+        self._det = self._sigma = self._tol = None
         self._groups = {}
         self._heat = None
         self._face = None
@@ -351,7 +319,7 @@ class KeypointCue:
         if state[0] is not None:
             self._det, self._sigma, self._tol = list(state[0]), state[1].copy(), state[2].copy()
             self._heat = state[4]
-            self._prepare()
+            self._groups = {}
         self._face = state[3]
 
     # -- facing ----------------------------------------------------------------------------
@@ -378,42 +346,55 @@ class KeypointCue:
 
     # -- scores ----------------------------------------------------------------------------
     def _group(self, parts: tuple[str, ...]) -> list[tuple | None]:
-        """Per camera None (no detected point of ``parts``) or ``parts``' prepared entries side
-        by side, so one pass of :func:`_cue_sums` scores them all: the model's point indices
-        ``(sides, H)`` per tuple of sides (``(0,)``, ``(1,)``, ``(0, 1)``), the detected points
-        ``(2, H, 2)``, which are there ``(2, H)``, the slot in ``parts`` of the part each of the
-        ``H`` columns belongs to, each part's number of detected points ``(len(parts),)``, and
-        the heatmaps ``(2, H, rows, cols)`` with their map (or None). Built once per frame and
-        group."""
+        """Per camera None (no detected point of ``parts``) or the detected points of ``parts``
+        laid side by side, so one pass of :func:`_cue_sums` scores them all: the model's point
+        indices ``(sides, H)`` per tuple of sides (``(0,)``, ``(1,)``, ``(0, 1)``), the detected
+        points ``(2, H, 2)``, which are there ``(2, H)``, the slot in ``parts`` of the part each
+        of the ``H`` columns belongs to, each part's number of detected points
+        ``(len(parts),)``, and the heatmaps ``(2, H, rows, cols)`` with their map (or None).
+        Built once per frame and group."""
         cached = self._groups.get(parts)
         if cached is not None:
             return cached
         group: list[tuple | None] = []
-        for prep in self._prep or ():
-            entries = [(i, prep.get(p)) for i, p in enumerate(parts)] if prep else []
-            entries = [(i, e) for i, e in entries if e is not None]
-            if not entries:
+        heat = self._heat or [None] * len(self.cameras)
+        for det, hm in zip(self._det or (), heat, strict=False):
+            sels: tuple[list[int], list[int]] = ([], [])
+            filled, valid, part_of = [], [], []
+            counts = np.zeros(len(parts))
+            for slot, part in enumerate(parts):
+                pts = None if det is None else det.get(part)  # (2, points, 2), NaN: none
+                if pts is None:
+                    continue
+                found = np.isfinite(pts).all(axis=2)  # (2, points)
+                have = np.flatnonzero(found.any(axis=0))  # a point of either side
+                for side in (0, 1):
+                    sels[side].extend(PARTS[part][side][j] for j in have)
+                filled.append(np.where(found[:, have, None], pts[:, have], 0.0))
+                valid.append(found[:, have])
+                part_of += [slot] * len(have)
+                counts[slot] = found.sum()
+            if not part_of:
                 group.append(None)
                 continue
-            sels = tuple(sum((e[0][side] for _, e in entries), []) for side in (0, 1))
-            filled = np.concatenate([e[1] for _, e in entries], axis=1)
-            valid = np.concatenate([e[2] for _, e in entries], axis=1)
-            which = [i for i, _ in entries]
-            part_of = np.repeat(which, [len(e[0][0]) for _, e in entries]).astype(np.int64)
             cols = {
                 sides: np.array([sels[side] for side in sides], dtype=np.int64)
                 for sides in ((0,), (1,), (0, 1))
             }
-            counts = np.zeros(len(parts))
-            counts[which] = [e[3] for _, e in entries]
             maps = None
-            if entries[0][1][4] is not None:
-                maps = (
-                    np.ascontiguousarray(np.concatenate([e[4][0] for _, e in entries], axis=1)),
-                    np.ascontiguousarray(entries[0][1][4][1], dtype=np.float64),
+            if hm is not None:  # the model's point indices are the landmarks' of each side
+                grids = np.asarray(hm.maps, dtype=np.float32)[cols[(0, 1)]]  # (2, H, rows, cols)
+                maps = (np.ascontiguousarray(grids), np.ascontiguousarray(hm.to_map))
+            group.append(
+                (
+                    cols,
+                    np.ascontiguousarray(np.concatenate(filled, axis=1), dtype=np.float64),
+                    np.ascontiguousarray(np.concatenate(valid, axis=1)),
+                    np.array(part_of, dtype=np.int64),
+                    counts,
+                    maps,
                 )
-            filled = np.ascontiguousarray(filled, dtype=np.float64)
-            group.append((cols, filled, np.ascontiguousarray(valid), part_of, counts, maps))
+            )
         self._groups[parts] = group
         return group
 
@@ -461,11 +442,8 @@ class KeypointCue:
             k = sl.shape[-1]
             sl = sl.reshape(len(parts), 2, shape[0], -1, 1, k)
             sr = sr.reshape(len(parts), 2, shape[0], 1, -1, k)
-        best = np.maximum(sl[:, 0] + sr[:, 1], sl[:, 1] + sr[:, 0])
-        total = best[0]
-        for b in best[1:]:
-            total = total + b
-        return total, counts.sum(axis=0)
+        best = np.maximum(sl[:, 0] + sr[:, 1], sl[:, 1] + sr[:, 0])  # per part
+        return best.sum(axis=0), counts.sum(axis=0)
 
     def _mean(self, total: np.ndarray, counts: np.ndarray) -> np.ndarray:
         """The mean point score over the cameras with detections: ``total`` (..., K)."""

@@ -158,6 +158,21 @@ def _distort(x: float, y: float, cams: np.ndarray, k: int) -> tuple[float, float
 
 
 @nb.njit(cache=True, inline="always")
+def _to_camera(px: float, py: float, pz: float, cams: np.ndarray, k: int):
+    """World point (px, py, pz) in packed camera k's coordinates ``(xc, yc, zc)``."""
+    xc = cams[k, 0] * px + cams[k, 1] * py + cams[k, 2] * pz + cams[k, 9]
+    yc = cams[k, 3] * px + cams[k, 4] * py + cams[k, 5] * pz + cams[k, 10]
+    zc = cams[k, 6] * px + cams[k, 7] * py + cams[k, 8] * pz + cams[k, 11]
+    return xc, yc, zc
+
+
+@nb.njit(cache=True, inline="always")
+def _to_pixel(x: float, y: float, cams: np.ndarray, k: int) -> tuple[float, float]:
+    """Distorted normalised coordinates -> pixel ``(u, v)`` with camera k's intrinsics."""
+    return cams[k, 12] * x + cams[k, 16] * y + cams[k, 14], cams[k, 13] * y + cams[k, 15]
+
+
+@nb.njit(cache=True, inline="always")
 def project_point(
     px: float, py: float, pz: float, cams: np.ndarray, k: int
 ) -> tuple[float, float, float, bool]:
@@ -165,16 +180,12 @@ def project_point(
 
     Returns (u, v, pixels per metre at that depth, in front of the camera?).
     """
-    xc = cams[k, 0] * px + cams[k, 1] * py + cams[k, 2] * pz + cams[k, 9]
-    yc = cams[k, 3] * px + cams[k, 4] * py + cams[k, 5] * pz + cams[k, 10]
-    zc = cams[k, 6] * px + cams[k, 7] * py + cams[k, 8] * pz + cams[k, 11]
+    xc, yc, zc = _to_camera(px, py, pz, cams, k)
     if not zc >= Z_NEAR:
         return 0.0, 0.0, 0.0, False
     x = xc / zc
     y = yc / zc
-    fx = cams[k, 12]
-    fy = cams[k, 13]
-    scale = 0.5 * (fx + fy) / zc
+    scale = 0.5 * (cams[k, 12] + cams[k, 13]) / zc
     if cams[k, 31] != 0.0:
         xd, yd = _distort(x, y, cams, k)
         x1, y1 = _distort(x + FD_STEP, y, cams, k)
@@ -183,8 +194,7 @@ def project_point(
         scale *= np.sqrt(abs(det))
         x = xd
         y = yd
-    u = fx * x + cams[k, 16] * y + cams[k, 14]
-    v = fy * y + cams[k, 15]
+    u, v = _to_pixel(x, y, cams, k)
     return u, v, scale, True
 
 
@@ -195,16 +205,15 @@ def project_uv(
     """Pixel ``(u, v)`` of world point (px, py, pz) through packed camera k, as
     :meth:`tracker.camera.Camera.project` gives it, and whether it lies in front of the camera
     (``z > 0``; Camera.project gives NaN otherwise)."""
-    xc = cams[k, 0] * px + cams[k, 1] * py + cams[k, 2] * pz + cams[k, 9]
-    yc = cams[k, 3] * px + cams[k, 4] * py + cams[k, 5] * pz + cams[k, 10]
-    zc = cams[k, 6] * px + cams[k, 7] * py + cams[k, 8] * pz + cams[k, 11]
+    xc, yc, zc = _to_camera(px, py, pz, cams, k)
     if not zc > 0.0:
         return 0.0, 0.0, False
     x = xc / zc
     y = yc / zc
     if cams[k, 31] != 0.0:
         x, y = _distort(x, y, cams, k)
-    return cams[k, 12] * x + cams[k, 16] * y + cams[k, 14], cams[k, 13] * y + cams[k, 15], True
+    u, v = _to_pixel(x, y, cams, k)
+    return u, v, True
 
 
 @nb.njit(cache=True, inline="always")
