@@ -48,8 +48,8 @@ Run::
 
 ``--filters`` also accepts non-default variants for experiments: ``ipf-published`` (the method
 as published: intervals centred on the particle's value, fixed width, one pass, the M heaviest
-distinct particles kept), ``ipf-wide`` (``ipf.interval_deg = 30``) and ``ipf-above``
-(``floor = above``: feet may float above the floor, the default before session 3),
+distinct particles kept, no annealing stage), ``ipf-wide`` (``ipf.interval_deg = 30``) and
+``ipf-above`` (``floor = above``: feet may float above the floor, the default before session 3),
 ``ipf-nocolour`` (``appearance.enabled = false``: silhouette only, the default before session 4).
 ``--one-colour`` dresses every person in one plain colour (top, trousers and shoes alike): the
 colour cue then has little to hold.
@@ -224,6 +224,7 @@ FILTER_VARIANTS: dict[str, dict] = {
             "adaptive_width": 0.0,
             "refine_share": 0.0,
             "max_per_group": 0,
+            "anneal": {"share": 0.0},
         },
     },
     "ipf-wide": {"filter": "ipf", "ipf": {"interval_deg": 30.0}},

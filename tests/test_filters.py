@@ -204,6 +204,62 @@ def test_ipf_keeps_m_groups_even_with_few_distinct_particles() -> None:
     assert np.unique(f.particles, axis=0).shape[0] == 9 * 81  # noise on R separates the groups
 
 
+def test_ipf_anneal_stage_takes_its_groups_budget_and_moves_every_dof() -> None:
+    """The annealing stage spends a share of the kept groups' evaluations on layers diffused on
+    every DOF, the root included; the frame's total stays kept * q^n."""
+    cfg = IPFConfig(kept=9, anneal={"share": 0.34, "layers": 2})
+    assert cfg.anneal_groups == 3 and cfg.evaluations == 729
+    f = IntervalParticleFilter(cfg, limits=LIMITS, rng=np.random.default_rng(0))
+    assert f.M == 6 and f.anneal_sizes == [122, 121] and f.evaluations_per_step == 729
+    f.initialise(_standing()[None])
+    lik = ToyLikelihood(_truth(0.0))
+    est = f.step(lik, 0.05)
+    assert lik.evaluations == f.last_evaluations == 729
+    assert f.particles.shape == (729, N_DOF)
+    grid, layers = f.particles[: 6 * 81], f.particles[6 * 81 :]
+    root = list(ROOT_DOFS)
+    assert np.all(grid[:, root] == grid[0, root])  # the grid passes leave the root as set
+    assert np.all(np.ptp(layers, axis=0) > 0)  # the layers move every DOF, the root too
+    assert np.all(layers >= LIMITS[0] - 1e-12) and np.all(layers <= LIMITS[1] + 1e-12)
+    assert est.weight == f.weights.max()  # the estimate is the heaviest of all
+    # move_interesting false: the layers keep the grid's values of the interesting DOFs
+    still = IPFConfig(kept=9, anneal={"share": 0.34, "move_interesting": False})
+    g = IntervalParticleFilter(still, limits=LIMITS, rng=np.random.default_rng(0))
+    g.initialise(_standing()[None])
+    g.step(ToyLikelihood(_truth(0.0)), 0.05)
+    grid_vals = {tuple(r) for r in g.particles[: 6 * 81][:, LEGS]}
+    assert all(tuple(r) in grid_vals for r in g.particles[6 * 81 :][:, LEGS])
+    assert np.all(np.ptp(g.particles[6 * 81 :][:, list(ROOT_DOFS)], axis=0) > 0)
+    # share 0 (the default): the M groups of the grid, no stage
+    off = IntervalParticleFilter(
+        IPFConfig(kept=9, anneal={"share": 0.0}), limits=LIMITS, rng=np.random.default_rng(0)
+    )
+    assert off.M == 9 and off.anneal_sizes == [] and off.evaluations_per_step == 729
+
+
+def test_ipf_anneal_stage_moves_the_root_towards_the_truth() -> None:
+    """The grid and the noise on R never move the root (the origin search sets it); the
+    annealing stage does, at the same evaluations."""
+    truth = _standing()
+    truth[DOF["root_x"]] = 0.05
+    truth[DOF["root_yaw"]] = np.radians(6.0)
+    errors = {}
+    for share in (0.0, 0.34):
+        cfg = IPFConfig(kept=9, anneal={"share": share})
+        f = IntervalParticleFilter(cfg, limits=LIMITS, rng=np.random.default_rng(0))
+        f.initialise(_standing()[None])
+        lik = ToyLikelihood(truth)
+        for _ in range(5):
+            est = f.step(lik, 0.05)
+        assert lik.evaluations == 5 * 729
+        errors[share] = (
+            abs(est.pose[DOF["root_x"]] - 0.05),
+            abs(est.pose[DOF["root_yaw"]] - truth[DOF["root_yaw"]]),
+        )
+    assert errors[0.0] == pytest.approx((0.05, np.radians(6.0)), abs=1e-12)
+    assert errors[0.34][0] < 0.04 and errors[0.34][1] < np.radians(5.0)
+
+
 # -- the interface suite, run on every filter --------------------------------------------------
 @pytest.mark.parametrize("name", sorted(FILTERS))
 def test_same_evaluations_per_frame(name: str) -> None:
@@ -335,12 +391,19 @@ def test_origin_search_reusing_weights_is_bit_identical(known: bool) -> None:
 
 # -- IPF extensions (defaults beyond the published method; docs/tracker.md) -------------------
 METHOD = IPFConfig(
-    kept=9, interval_centre="value", adaptive_width=0, refine_share=0, max_per_group=0
+    kept=9,
+    interval_centre="value",
+    adaptive_width=0,
+    refine_share=0,
+    max_per_group=0,
+    anneal={"share": 0.0},
 )
+#: The grid passes alone (no annealing stage), for the tests of the other extensions.
+NO_ANNEAL = {"anneal": {"share": 0.0}}
 
 
 def test_ipf_coarse_to_fine_spends_the_same_budget() -> None:
-    cfg = IPFConfig(kept=9, refine_share=0.5, coarse_factor=2.0)
+    cfg = IPFConfig(kept=9, refine_share=0.5, coarse_factor=2.0, **NO_ANNEAL)
     f = IntervalParticleFilter(cfg, limits=LIMITS, rng=np.random.default_rng(0))
     assert f.pass_sizes() == (5, 4)  # M2 = round(4.5) = 4
     f.initialise(_standing()[None])
@@ -401,7 +464,7 @@ def test_ipf_adaptive_width_follows_the_joint_speed() -> None:
 
 def test_ipf_selection_caps_particles_per_group() -> None:
     f = IntervalParticleFilter(
-        IPFConfig(kept=9, max_per_group=3), limits=LIMITS, rng=np.random.default_rng(0)
+        IPFConfig(kept=9, max_per_group=3, **NO_ANNEAL), limits=LIMITS, rng=np.random.default_rng(0)
     )
     f.initialise(np.repeat(_standing()[None], 2, axis=0))
     lik = ToyLikelihood(_truth(0.05))

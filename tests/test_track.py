@@ -87,7 +87,40 @@ def _lower_limb_error(joints: np.ndarray, truth: np.ndarray) -> np.ndarray:
 # -- accuracy on the synthetic clip -------------------------------------------------------------
 #: The IPF as issue 3 describes it (the defaults add a coarse-to-fine pass and a diverse
 #: selection; docs/tracker.md).
-METHOD = {"interval_centre": "value", "adaptive_width": 0, "refine_share": 0, "max_per_group": 0}
+METHOD = {
+    "interval_centre": "value",
+    "adaptive_width": 0,
+    "refine_share": 0,
+    "max_per_group": 0,
+    "anneal": {"share": 0.0},
+}
+
+
+@pytest.mark.parametrize("n_cams", [1, 2, 3])
+def test_ipf_anneals_only_with_enough_cameras(n_cams: int) -> None:
+    """The IPF's annealing stage (``ipf.anneal``, opt-in) runs with ``min_cameras`` cameras or
+    more; below, its groups go back to the grid. The filter's evaluations stay the same."""
+    from tracker.pipeline import Tracker
+    from tracker.synthetic import side_cameras
+
+    cams = side_cameras(n_cams, image_size=SIZE, fps=FPS)
+    assert TrackerConfig().ipf.anneal_groups == 0  # opt-in
+    config = TrackerConfig(keypoints={"enabled": False}, ipf={"anneal": {"share": 0.15}})
+    assert config.ipf.anneal.min_cameras == 2 and config.ipf.anneal_groups == 12
+    tracker = Tracker(cams, config, rng=np.random.default_rng(0))
+    f = tracker.filter
+    assert f.evaluations_per_step == config.evaluations_per_frame == 6561
+    if n_cams < 2:
+        assert f.M == 81 and f.anneal_sizes == []
+    else:
+        assert f.M == 69 and f.anneal_sizes == [486, 486]
+    # the trials' and the heading alternative's filters are built from the same settings
+    assert tracker._filter_config.ipf.anneal_groups == (0 if n_cams < 2 else 12)
+    three = TrackerConfig(
+        keypoints={"enabled": False}, ipf={"anneal": {"share": 0.15, "min_cameras": 3}}
+    )
+    m_three = Tracker(cams, three, rng=np.random.default_rng(0)).filter.M
+    assert m_three == (69 if n_cams >= 3 else 81)
 
 
 @pytest.mark.parametrize(

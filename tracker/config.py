@@ -87,6 +87,61 @@ class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid", validate_assignment=True)
 
 
+class IPFAnnealConfig(_Model):
+    """The IPF's annealing stage (opt-in; docs/tracker.md, "Session 46"): after the grid passes, a
+    share of the frame's evaluations goes to ``layers`` annealing layers, each resampled from
+    the last weights raised to the power that gives ``survival_rate``, diffused on every DOF
+    (the root too) and weighed, as the annealed particle filter's layers; the heaviest
+    particle of all is the estimate. It moves the root, trunk, arms and legs together, which
+    the origin search, the grid and the noise on R do one group at a time."""
+
+    share: Annotated[
+        float,
+        Field(
+            ge=0,
+            lt=1,
+            description="Share of the IPF's kept groups whose evaluations go to the annealing "
+            "stage (rounded to whole groups; the frame's total stays kept * q^n). 0: off (the "
+            'default and the method; 0.15 was measured: docs/tracker.md, "Session 46")',
+        ),
+    ] = 0.0
+    min_cameras: Annotated[
+        int,
+        Field(
+            ge=1,
+            le=16,
+            description="Anneal only with at least this many cameras: through one camera the "
+            'lower limbs lost accuracy (docs/tracker.md, "Session 46")',
+        ),
+    ] = 2
+    layers: Annotated[int, Field(ge=1, le=20, description="Annealing layers")] = 2
+    move_interesting: Annotated[
+        bool,
+        Field(
+            description="Diffuse the grid's DOFs (ipf.interesting) too; false: the layers "
+            "keep their values and move every other DOF"
+        ),
+    ] = True
+    sigma_scale: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=10,
+            description="First layer's noise: the random-walk sigmas of every DOF (the "
+            "baselines' defaults, root included) times this, at 20 Hz",
+        ),
+    ] = 0.5
+    survival_rate: Annotated[
+        float,
+        Field(
+            gt=0,
+            lt=1,
+            description="Target survival rate of each layer's annealed weights; the noise "
+            "shrinks by its square root per layer",
+        ),
+    ] = 0.5
+
+
 class IPFConfig(_Model):
     """Interval Particle Filtering (issue 3)."""
 
@@ -166,6 +221,7 @@ class IPFConfig(_Model):
         bool,
         Field(description="Use the likelihood's left/right-leg factorisation when L allows it"),
     ] = True
+    anneal: IPFAnnealConfig = Field(default_factory=IPFAnnealConfig)
 
     @field_validator("interesting")
     @classmethod
@@ -195,8 +251,15 @@ class IPFConfig(_Model):
 
     @property
     def evaluations(self) -> int:
-        """N = M * I likelihood evaluations per frame."""
+        """N = M * I likelihood evaluations per frame (the annealing stage's included)."""
         return self.kept * self.neighbours
+
+    @property
+    def anneal_groups(self) -> int:
+        """Kept groups whose evaluations the annealing stage takes (0: no stage)."""
+        if self.anneal.share == 0 or self.kept < 2:
+            return 0
+        return min(self.kept - 1, max(1, round(self.anneal.share * self.kept)))
 
 
 class CondensationConfig(_Model):

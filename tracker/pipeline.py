@@ -449,7 +449,17 @@ class Tracker:
         #: (body, limits, the seated configurations) of the last seated search.
         self._seated_configs: tuple[object, object, np.ndarray] | None = None
         self.rng = rng
-        self.filter: Filter = make_filter(c.filter, c, rng=rng, limits=self.limits)
+        #: The settings the filters are built from: the IPF's annealing stage is off below
+        #: ``ipf.anneal.min_cameras`` cameras (its groups go back to the grid).
+        self._filter_config = c
+        if c.ipf.anneal_groups and len(self.cameras) < c.ipf.anneal.min_cameras:
+            off = c.ipf.anneal.model_copy(update={"share": 0.0})
+            self._filter_config = c.model_copy(
+                update={"ipf": c.ipf.model_copy(update={"anneal": off})}
+            )
+        self.filter: Filter = make_filter(
+            c.filter, self._filter_config, rng=rng, limits=self.limits
+        )
         #: The trials' smaller filter (``redetect.trial_share`` < 1), built when first needed.
         self._trial_filter: Filter | None = None
         bgs = list(backgrounds) if backgrounds is not None else [None] * len(self.cameras)
@@ -1163,7 +1173,9 @@ class Tracker:
             yaw = DOF["root_yaw"]
             back = np.abs(wrap_angle(poses[:, yaw] - poses[0, yaw])) > np.pi / 2
             if back.any() and weights[back][0] >= ic.both_headings_ratio * weights[0]:
-                alt = make_filter(self.config.filter, self.config, rng=self.rng, limits=self.limits)
+                alt = make_filter(
+                    self.config.filter, self._filter_config, rng=self.rng, limits=self.limits
+                )
                 apose, aweight = self._seed_and_step(alt, poses[back], weights[back], dt)
                 self._alt = _Hypothesis(
                     filter=alt,
@@ -1545,7 +1557,7 @@ class Tracker:
         # A filter of the same kind with a share of the budget runs the trial; the tracker's
         # filter then takes over its particles, as if it had run the trial itself.
         if self._trial_filter is None:
-            c = self.config
+            c = self._filter_config
             self._trial_filter = make_filter(
                 c.filter, c, rng=self.rng, limits=self.limits, share=share
             )

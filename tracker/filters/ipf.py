@@ -32,6 +32,16 @@ draws, ``docs/tracker.md``):
 * ``adaptive_width``: an interval is widened to ``adaptive_width`` times the DOF's change over the
   last frame (the observed joint speed), never narrower than ``interval_deg`` and never wider
   than ``max_interval_deg`` (0: fixed widths, the method).
+* ``anneal`` (measured in session 46, ``docs/tracker.md``): an annealing stage after the grid
+  passes. ``anneal_groups`` of the ``kept`` groups (``anneal.share`` of them) give their
+  evaluations to ``anneal.layers`` layers, each resampled from the last weights annealed to
+  ``anneal.survival_rate`` (the first layer from the grid passes' particles), diffused on every
+  DOF, the root included (the baselines' random-walk sigmas times ``anneal.sigma_scale``,
+  shrinking by the square root of the survival rate per layer; ``anneal.move_interesting``
+  false leaves L as the grid set it) and weighed; the layers' particles join the frame's set,
+  so the estimate and the next selection take the heaviest of all. Still ``kept * I``
+  evaluations. The tracker turns it off below ``anneal.min_cameras`` cameras. ``share = 0``
+  (the default): off, the method.
 
 Structure exploited where exact: the I particles of a group share R, so they share the upper body
 and pelvis, and (when L holds only leg DOFs) the left-leg and right-leg variants combine
@@ -47,14 +57,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from tracker.config import IPFConfig
+from tracker.config import IPFConfig, _default_sigmas
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, ROOT_DOFS
+from tracker.filters.apf import annealed, annealing_exponent
 from tracker.filters.base import (
     Filter,
     Likelihood,
+    resample_systematic,
     row_groups,
     select_distinct,
     sigma_vector,
+    split_budget,
 )
 
 
@@ -83,8 +96,17 @@ class IntervalParticleFilter(Filter):
         self.n_left, self.n_right, self.n_other = len(left), len(right), len(other)
         self.R = np.array([i for i in range(N_DOF) if i not in set(self.L)], dtype=np.intp)
         self.q = c.q
-        self.M = c.kept
         self.I = c.q ** len(self.L)
+        #: M: the grid passes' groups; the annealing stage takes the other kept groups' share.
+        self.M = c.kept - c.anneal_groups
+        #: Evaluations per frame of the annealing stage (0: none) and its layers' sizes.
+        self.anneal_sizes = (
+            split_budget(c.anneal_groups * self.I, c.anneal.layers) if c.anneal_groups else []
+        )
+        #: The annealing stage's first-layer sigma per DOF at the reference dt.
+        self.anneal_sigma = sigma_vector(_default_sigmas(), c.anneal.sigma_scale)
+        if not c.anneal.move_interesting:
+            self.anneal_sigma[self.L] = 0.0
         widths = np.array(
             [c.interval_overrides_deg.get(n, c.interval_deg) for n in self._names(self.L)]
         )
@@ -108,7 +130,7 @@ class IntervalParticleFilter(Filter):
 
     @property
     def evaluations_per_step(self) -> int:
-        return self.M * self.I
+        return self.M * self.I + sum(self.anneal_sizes)
 
     # -- steps ----------------------------------------------------------------------------
     def select(self) -> np.ndarray:
@@ -281,11 +303,33 @@ class IntervalParticleFilter(Filter):
             w2 = self.measure(likelihood, p2)
             particles = np.concatenate([p1, p2])
             weights = np.concatenate([w1, w2])
+        if self.anneal_sizes:
+            particles, weights = self.anneal(likelihood, particles, weights, dt)
         self.weights = weights
         self.particles = particles
         best = particles[int(np.argmax(self.weights)), self.L]
         self._history = [*self._history[-1:], best.copy()]
         self._last_dt = dt
+
+    def anneal(
+        self, likelihood: Likelihood, particles: np.ndarray, weights: np.ndarray, dt: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The annealing stage (module docstring, ``anneal``): the frame's particles and
+        weights with each layer's appended."""
+        rate = self.config.anneal.survival_rate
+        sigma = self.anneal_sigma * np.sqrt(dt / self.reference_dt)
+        p, w = particles, weights
+        pi = annealed(w, annealing_exponent(w, rate))
+        ps, ws = [p], [w]
+        for size in self.anneal_sizes:
+            p = p[resample_systematic(pi, size, self.rng)]  # a copy
+            self.clamp(self._diffuse(p, sigma))
+            w = self._weigh(likelihood, p)
+            pi = annealed(w, annealing_exponent(w, rate))
+            sigma = sigma * np.sqrt(rate)
+            ps.append(p)
+            ws.append(w)
+        return np.concatenate(ps), np.concatenate(ws)
 
 
 __all__ = ["IntervalParticleFilter", "ROOT_DOFS"]
