@@ -72,6 +72,32 @@ def annealed(weights: np.ndarray, beta: float) -> np.ndarray:
     return pi / pi.sum()
 
 
+def annealing_layers(
+    filt: Filter,
+    likelihood: Likelihood,
+    poses: np.ndarray,
+    pi: np.ndarray,
+    sigma: np.ndarray,
+    sizes: list[int],
+    alpha: float,
+):
+    """Annealing layers of ``filt`` (its generator, diffusion, limits and evaluation count):
+    for each size, resample ``size`` of the previous layer's poses in proportion to their
+    annealed weights ``pi`` (the first layer: of ``poses``), diffuse by ``sigma`` (shrunk by
+    ``sqrt(alpha)`` per layer), clamp and weigh. Yields each layer's (poses, weights, beta),
+    ``beta`` the exponent whose annealed weights have survival rate ``alpha``."""
+    p = poses
+    for size in sizes:
+        p = p[resample_systematic(pi, size, filt.rng)]  # a copy
+        filt._diffuse(p, sigma)
+        filt.clamp(p)
+        w = filt._weigh(likelihood, p)
+        beta = annealing_exponent(w, alpha)
+        pi = annealed(w, beta)
+        sigma = sigma * np.sqrt(alpha)
+        yield p, w, beta
+
+
 class AnnealedParticleFilter(Filter):
     """Annealed particle filtering with survival-rate-driven annealing (see module docstring)."""
 
@@ -107,19 +133,12 @@ class AnnealedParticleFilter(Filter):
         self.last_evaluations = 0
         alpha = self.config.survival_rate
         sigma = self.sigma * np.sqrt(dt / self.reference_dt)
-        p, pi = self.particles, self.pi
-        if pi.shape != (p.shape[0],):
+        pi = self.pi
+        if pi.shape != (self.particles.shape[0],):
             pi = annealed(self.weights, 1.0)
-        self.betas = []
-        w = self.weights
-        for size in self.sizes:
-            idx = resample_systematic(pi, size, self.rng)
-            p = p[idx].copy()
-            self._diffuse(p, sigma)
-            self.clamp(p)
-            w = self._weigh(likelihood, p)
-            beta = annealing_exponent(w, alpha)
-            self.betas.append(beta)
-            pi = annealed(w, beta)
-            sigma = sigma * np.sqrt(alpha)
-        self.particles, self.weights, self.pi = p, w, pi
+        layers = list(
+            annealing_layers(self, likelihood, self.particles, pi, sigma, self.sizes, alpha)
+        )
+        self.betas = [beta for _, _, beta in layers]
+        self.particles, self.weights, _ = layers[-1]
+        self.pi = annealed(self.weights, self.betas[-1])

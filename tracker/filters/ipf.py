@@ -59,11 +59,10 @@ import numpy as np
 
 from tracker.config import IPFConfig, _default_sigmas
 from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, ROOT_DOFS
-from tracker.filters.apf import annealed, annealing_exponent
+from tracker.filters.apf import annealed, annealing_exponent, annealing_layers
 from tracker.filters.base import (
     Filter,
     Likelihood,
-    resample_systematic,
     row_groups,
     select_distinct,
     sigma_vector,
@@ -318,18 +317,14 @@ class IntervalParticleFilter(Filter):
         weights with each layer's appended."""
         rate = self.config.anneal.survival_rate
         sigma = self.anneal_sigma * np.sqrt(dt / self.reference_dt)
-        p, w = particles, weights
-        pi = annealed(w, annealing_exponent(w, rate))
-        ps, ws = [p], [w]
-        for size in self.anneal_sizes:
-            p = p[resample_systematic(pi, size, self.rng)]  # a copy
-            self.clamp(self._diffuse(p, sigma))
-            w = self._weigh(likelihood, p)
-            pi = annealed(w, annealing_exponent(w, rate))
-            sigma = sigma * np.sqrt(rate)
-            ps.append(p)
-            ws.append(w)
-        return np.concatenate(ps), np.concatenate(ws)
+        pi = annealed(weights, annealing_exponent(weights, rate))
+        layers = list(
+            annealing_layers(self, likelihood, particles, pi, sigma, self.anneal_sizes, rate)
+        )
+        return (
+            np.concatenate([particles, *(p for p, _, _ in layers)]),
+            np.concatenate([weights, *(w for _, w, _ in layers)]),
+        )
 
 
 __all__ = ["IntervalParticleFilter", "ROOT_DOFS"]
