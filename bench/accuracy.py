@@ -809,9 +809,11 @@ def leg_lengths(positions: np.ndarray) -> np.ndarray:
     return 0.5 * (sides[0] + sides[1])
 
 
-def diagnostics(truth: Trajectory, est: Trajectory, camera) -> dict[str, float]:
-    """Heading error, sacrum errors, depth error along the first camera's line of sight, foot
-    height, flat-foot stance errors, and where the worst frame is (for the diagnosis)."""
+def diagnostics(truth: Trajectory, est: Trajectory, camera, second_camera=None) -> dict[str, float]:
+    """Heading error, sacrum errors (also along the walker's forward and left), depth error
+    along the first camera's line of sight (and the second's, ``second_camera``; NaN without
+    one), foot height, flat-foot stance errors, and where the worst frame is (for the
+    diagnosis)."""
     from gait.geometry import body_forward
     from gaitwatch.evaluation import align, stance_bias
 
@@ -825,10 +827,18 @@ def diagnostics(truth: Trajectory, est: Trajectory, camera) -> dict[str, float]:
     sac = (ep[:, SACRUM] - tp[:, SACRUM]) * 1000
     err = joint_errors_mm(tp, ep)
     lower = np.nanmean(err[:, list(LOWER_LIMB)], axis=1)
-    centre = np.asarray(camera.center, dtype=np.float64)
-    depth = np.linalg.norm(ep[:, SACRUM] - centre, axis=1) - np.linalg.norm(
-        tp[:, SACRUM] - centre, axis=1
-    )
+    left = np.cross([0.0, 0.0, 1.0], ft)  # the truth's left, horizontal
+
+    def depth_mm(cam) -> float:
+        """Mean of the estimate's sacrum distance from ``cam`` minus the truth's (mm)."""
+        if cam is None:
+            return math.nan
+        centre = np.asarray(cam.center, dtype=np.float64)
+        d = np.linalg.norm(ep[:, SACRUM] - centre, axis=1) - np.linalg.norm(
+            tp[:, SACRUM] - centre, axis=1
+        )
+        return float(np.nanmean(d) * 1000)
+
     feet = [L_HEEL, R_HEEL, L_TOE, R_TOE]
     foot_z = np.nanmin(ep[:, feet, 2], axis=1) - np.nanmin(tp[:, feet, 2], axis=1)
     width_t = np.linalg.norm(tp[:, L_HIP] - tp[:, R_HIP], axis=1)
@@ -840,7 +850,10 @@ def diagnostics(truth: Trajectory, est: Trajectory, camera) -> dict[str, float]:
         "heading_flip": float(np.mean(head > 90)),
         "sacrum_xy_mm": float(np.nanmean(np.linalg.norm(sac[:, :2], axis=1))),
         "sacrum_dz_mm": float(np.nanmean(sac[:, 2])),
-        "depth_mm": float(np.nanmean(depth) * 1000),
+        "sacrum_forward_mm": float(np.nanmean(np.sum(sac * ft, axis=1))),
+        "sacrum_left_mm": float(np.nanmean(np.sum(sac * left, axis=1))),
+        "depth_mm": depth_mm(camera),
+        "depth2_mm": depth_mm(second_camera),
         "foot_dz_mm": float(np.nanmedian(foot_z) * 1000),
         "first_half_mm": float(np.nanmean(err[: max(1, len(err) // 2)])),
         "second_half_mm": float(np.nanmean(err[len(err) // 2 :])),
@@ -962,7 +975,7 @@ def diag_table(runs: list[Run]) -> str:
     for r in runs:
         d = r.diag
         if not d:
-            rows.append([*_scene_cells(r, draws), r.filter] + ["-"] * 19)
+            rows.append([*_scene_cells(r, draws), r.filter] + ["-"] * 20)
             continue
         rows.append(
             [
@@ -973,7 +986,9 @@ def diag_table(runs: list[Run]) -> str:
                 f"{100 * d['heading_flip']:.0f}%",
                 f"{d['sacrum_xy_mm']:.0f}",
                 f"{d['sacrum_dz_mm']:+.0f}",
-                f"{d['depth_mm']:+.0f}",
+                f"{d['sacrum_forward_mm']:+.0f} / {d['sacrum_left_mm']:+.0f}",
+                f"{d['depth_mm']:+.0f}"
+                + ("" if math.isnan(d["depth2_mm"]) else f" / {d['depth2_mm']:+.0f}"),
                 f"{d['foot_dz_mm']:+.0f}",
                 f"{d['first_half_mm']:.0f} / {d['second_half_mm']:.0f}",
                 f"{d['hip_width_ratio']:.2f}",
@@ -998,7 +1013,8 @@ def diag_table(runs: list[Run]) -> str:
             "facing flipped (>90 deg)",
             "sacrum xy mm",
             "sacrum z bias mm",
-            "depth err cam0 mm",
+            "sacrum forward / left bias mm",
+            "depth err cam0 (/ cam1) mm",
             "lowest foot z err mm",
             "all mm 1st / 2nd half",
             "hip width est/true",
@@ -1214,7 +1230,10 @@ JSON_DIAGNOSTICS = (
     "leg_length_err_pct",
     "hip_width_ratio",
     "sacrum_dz_mm",
+    "sacrum_forward_mm",
+    "sacrum_left_mm",
     "depth_mm",
+    "depth2_mm",
     "heading_flip",
 )
 
@@ -1574,7 +1593,7 @@ def main(argv: list[str] | None = None) -> int:
                     ms_per_frame=info["ms"],
                     evaluations_per_frame=info["evals_tracked"],
                 )
-                d = diagnostics(truth, est, cams[0])
+                d = diagnostics(truth, est, cams[0], cams[1] if len(cams) > 1 else None)
                 if d:
                     d.update(
                         seg_iou=info["seg_iou"],

@@ -187,15 +187,29 @@ def test_accuracy_json_has_groups_and_proportions(accuracy, tmp_path):
         est_pos[:, knee, 2], est_pos[:, ankle, 2] = 0.46, 0.02  # 0.88 m instead of 0.8
         est_pos[:, [hip, knee, ankle], 1] *= 1.2  # legs 20 mm further out
     est_pos[:, SACRUM, 2] -= 0.03
+    est_pos[:, SACRUM, 0] -= 0.01  # 10 mm behind (the walk goes along +x)
+    est_pos[:, SACRUM, 1] += 0.02  # 20 mm to the walker's left (+y)
     est = Trajectory(times=truth.times, positions=est_pos, frames=truth.frames)
 
     class Cam:
         center = (5.0, -4.0, 1.5)
 
+    class Side:  # on the walker's left, level with the sacrum: depth is minus the left bias
+        center = (0.15, 3.0, 1.0)
+
+    class Ahead:  # ahead on the path, level with the sacrum: depth is minus the forward bias
+        center = (40.0, 0.0, 1.0)
+
     diag = accuracy.diagnostics(truth, est, Cam())
     assert diag["leg_length_ratio"] == pytest.approx(1.1)
     assert diag["hip_width_ratio"] == pytest.approx(1.2)
     assert diag["sacrum_dz_mm"] == pytest.approx(-30)
+    assert diag["sacrum_forward_mm"] == pytest.approx(-10)
+    assert diag["sacrum_left_mm"] == pytest.approx(20)
+    assert math.isnan(diag["depth2_mm"])
+    two = accuracy.diagnostics(truth, est, Side(), Ahead())
+    assert two["depth_mm"] == pytest.approx(-20, abs=1.5)  # nearer the side camera
+    assert two["depth2_mm"] == pytest.approx(10, abs=0.5)  # farther from the one ahead
     m = evaluate(truth, est)
     run = _run(accuracy, m, "oblique", diag)
     rec = accuracy.run_record(run)
