@@ -814,7 +814,7 @@ def diagnostics(truth: Trajectory, est: Trajectory, camera, second_camera=None) 
     along the first camera's line of sight (and the second's, ``second_camera``; NaN without
     one), foot height, flat-foot stance errors, and where the worst frame is (for the
     diagnosis)."""
-    from gait.geometry import body_forward
+    from gait.geometry import body_forward, left_of
     from gaitwatch.evaluation import align, stance_bias
 
     it, ie = align(truth, est)
@@ -827,7 +827,7 @@ def diagnostics(truth: Trajectory, est: Trajectory, camera, second_camera=None) 
     sac = (ep[:, SACRUM] - tp[:, SACRUM]) * 1000
     err = joint_errors_mm(tp, ep)
     lower = np.nanmean(err[:, list(LOWER_LIMB)], axis=1)
-    left = np.cross([0.0, 0.0, 1.0], ft)  # the truth's left, horizontal
+    left = left_of(ft)  # the truth's left, horizontal
 
     def depth_mm(cam) -> float:
         """Mean of the estimate's sacrum distance from ``cam`` minus the truth's (mm)."""
