@@ -177,3 +177,32 @@ def test_face_check_window_rule_and_seated_mode(stepping: dict) -> None:
     tracker._facing = [(0.05 * k, -0.05) for k in range(10)]
     tracker._seated = True
     assert tracker._faces_backwards(turned, t) is None
+
+
+@pytest.mark.parametrize("heading", [0.5 * np.pi, -0.5 * np.pi])
+def test_first_search_sees_the_detections(heading: float) -> None:
+    """The first initial search scores its candidates with the key-point cue (``initial``,
+    before any estimate gave the typical score). A walker at heel strike facing away from the
+    camera or towards it: the silhouette alone looks alike both ways (without the cue both
+    came out 155-157 deg off), the detected legs and feet tell. The cue is then active, its
+    typical score near the first estimate's."""
+    from tracker.likelihood import SilhouetteLikelihood
+    from tracker.pipeline import Tracker
+    from tracker.synthetic import render_clip, side_cameras, textured_background, walking_motion
+
+    rng = np.random.default_rng(11)
+    body = BodyModel(1.70)
+    cams = side_cameras(1, image_size=SIZE, centre=(1.0, 0.0), fps=FPS)
+    pose = walking_motion(body, 1, fps=FPS, start_xy=(1.0, 0.0), heading=heading)
+    bgs = [textured_background(*SIZE, rng) for _ in cams]
+    frames = list(render_clip(SilhouetteLikelihood(body, cams), pose, bgs, rng))
+    kp = {"enabled": True, "detector": "none", "initial": True}
+    cfg = TrackerConfig(ipf=IPFConfig(kept=9), keypoints=kp)
+    tracker = Tracker(cams, cfg, rng=np.random.default_rng(3), backgrounds=bgs, body=body)
+    res = tracker.process(0, 0.0, frames[0], keypoints=_face_detections(body, pose[0], cams))
+    assert res.status == "initialised"
+    err = np.degrees(abs(wrap_angle(res.pose[DOF["root_yaw"]] - heading)))
+    assert err < 45.0, err
+    cue = tracker.keypoint_cue
+    first = float(cue.scores(tracker.body, tracker.body.points(res.pose[None]))[0])
+    assert cue.active and cue.typical == pytest.approx(first, rel=0.15)

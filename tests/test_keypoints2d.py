@@ -551,3 +551,38 @@ def test_heatmaps_follow_the_config_and_the_frame_state(body, cameras) -> None:
         cue.set_frame(dets, [maps[0].maps, maps[1]])
     with pytest.raises(ValidationError):
         KeypointConfig(score="gaussian")
+
+
+def test_provisional_typical_of_the_first_search(body, cameras) -> None:
+    """``begin_initial`` makes the cue score a search before any estimate gave the typical
+    score (rankings as with any typical); ``end_initial`` takes the search's best as the typical
+    and returns the multiplier that puts the search's weights on that scale."""
+    pose = _pose(body)
+    lik = _painted_likelihood(body, cameras, pose)
+    rng = np.random.default_rng(4)
+    poses = pose[None] + rng.normal(0, 0.05, (20, N_DOF))
+    plain = lik.weights(poses)
+    assert not _cue(cameras, _detections(body, pose, cameras)).begin_initial()  # opt-in
+    cue = _cue(cameras, _detections(body, pose, cameras), initial=True)
+    lik.keypoints = cue
+    assert cue.begin_initial() and cue.active
+    searched = lik.weights(poses)
+    scores = cue.scores(body, body.points(poses))
+    np.testing.assert_allclose(searched, plain * scores**cue.config.beta, rtol=1e-10)
+    best = int(np.argmax(searched))
+    mult = cue.end_initial(body, poses[best])
+    assert cue.typical == pytest.approx(scores[best])
+    np.testing.assert_allclose(searched * mult, lik.weights(poses), rtol=1e-10)
+    assert not cue.begin_initial()  # a typical score is known: nothing to do
+    # no detections this frame: the search is silhouette-only as before
+    none = _cue(cameras, _detections(body, pose, cameras), initial=True)
+    none.clear_frame()
+    assert not none.begin_initial() and none.typical is None
+    # a best that scores nothing (every point behind the camera) leaves the cue inactive
+    lone = _cue(cameras[:1], _detections(body, pose, cameras[:1]), initial=True)
+    assert lone.begin_initial()
+    behind = pose.copy()
+    behind[:2] = 2 * np.asarray(cameras[0].center)[:2] - pose[:2]  # mirrored past the camera
+    assert float(lone.scores(body, body.points(behind[None]))[0]) == 0.0
+    assert lone.end_initial(body, behind) == pytest.approx(1e-6**-lone.config.beta)
+    assert lone.typical is None and not lone.active

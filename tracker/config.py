@@ -1452,6 +1452,15 @@ class KeypointConfig(_Model):
     rate: Annotated[
         float, Field(gt=0, le=1, description="Update rate of the typical score of estimates")
     ] = 0.2
+    initial: Annotated[
+        bool,
+        Field(
+            description="Score the first initial search's candidates too, before any estimate "
+            "gave the typical score (a provisional typical). Opt-in: it fixed a track that "
+            "started facing backwards but lost a crouch walk and one camera's knee angles "
+            '(docs/tracker.md, "Session 48")',
+        ),
+    ] = False
 
 
 class EdgeConfig(_Model):

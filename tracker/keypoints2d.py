@@ -40,7 +40,9 @@ camera to ``Tracker.process(..., keypoints=...)``.
 * **Combination**: ``SilhouetteLikelihood.keypoints`` multiplies every weight by ``(score /
   typical) ** beta``, ``typical`` the running score of the estimates (``update``), so weights
   keep the IoU scale. The cue is inactive until the first estimate gives the typical score,
-  and in a frame without detections.
+  and in a frame without detections. With ``initial`` (opt-in) the first initial search scores
+  its candidates too, with a provisional typical (:meth:`KeypointCue.begin_initial`): the
+  detector sees which way the legs bend and the feet point, which a silhouette cannot tell.
 * **Facing** (:meth:`KeypointCue.facing`, :func:`facing_evidence`): the weight does not use
   the detected nose, but the heading check does (``heading_check.facing_s``): seen in profile,
   the nose lies ahead of the shoulders, which tells front from back where a silhouette cannot.
@@ -484,6 +486,29 @@ class KeypointCue:
     def weight_factors(self, body: BodyModel, pts: np.ndarray) -> np.ndarray:
         """``factor(scores(body, pts))`` ``(N,)``."""
         return self.factor(self.scores(body, pts))
+
+    def begin_initial(self) -> bool:
+        """Let the first initial search see the cue, before any estimate gave the typical
+        score (``initial``): a provisional typical of 1, which ranks the candidates as any
+        typical would. True when it was set; :meth:`end_initial` then takes the search's best.
+        """
+        if not self.config.initial or self.typical is not None or not self.has_frame:
+            return False
+        self.typical = 1.0
+        return True
+
+    def end_initial(self, body: BodyModel, pose: np.ndarray) -> float:
+        """After the search :meth:`begin_initial` opened: the typical score becomes ``pose``'s
+        (the search's best), as :meth:`update` would set it. Returns the multiplier that puts
+        the search's weights on that scale (rankings unchanged). A best that scores nothing
+        leaves the cue inactive, as before the search."""
+        beta = self.config.heatmap_beta if self.scores_heatmaps else self.config.beta
+        s = float(self.scores(body, body.points(np.asarray(pose, dtype=np.float64)[None]))[0])
+        if s <= 0:
+            self.typical = None
+            return float(1e-6**-beta)
+        self.typical = s
+        return float(s**-beta)
 
     def update(self, body: BodyModel, pose: np.ndarray) -> None:
         """Follow the estimates' score (the typical score of the factor); no frame: nothing."""

@@ -50,7 +50,7 @@ import copy
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
@@ -1141,6 +1141,8 @@ class Tracker:
     def _initialise(self, masks: list[np.ndarray], dt: float) -> tuple[np.ndarray, float] | None:
         girths = self.config.init.girths
         estimate = self._estimate_girth and len(girths) > 1 and not self._girth_scores
+        cue = self.keypoint_cue  # the first search sees the key-point cue too (`initial`)
+        provisional = cue is not None and cue.begin_initial()
         best = None
         for g in girths if estimate else (None,):
             if g is not None:
@@ -1156,6 +1158,8 @@ class Tracker:
                     dt=dt,
                 )
             if res is None:
+                if provisional:
+                    cue.typical = None
                 return None
             if best is None or res.best_weight > best[1].best_weight:
                 best = (self.body, res)
@@ -1163,6 +1167,8 @@ class Tracker:
         body, res = best
         if estimate:
             self._set_body(body)
+        if provisional:
+            res = replace(res, weights=res.weights * cue.end_initial(self.body, res.best))
         self.need_init = False
         self.low_count = 0
         self.velocity_xy = np.zeros(2)
