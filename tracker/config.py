@@ -1452,6 +1452,37 @@ class KeypointConfig(_Model):
     rate: Annotated[
         float, Field(gt=0, le=1, description="Update rate of the typical score of estimates")
     ] = 0.2
+    fuse: Annotated[
+        tuple[Literal["hips", "shoulders"], ...],
+        Field(
+            description="Pairs of written key points moved fuse_weight of the way to their "
+            "detections triangulated across the cameras, with fuse_min_cameras cameras or more "
+            "(tracker.triangulation.fuse_detections; the tracker's own pose keeps the model's). "
+            'Empty: none (docs/tracker.md, "Session 48")',
+        ),
+    ] = ("hips", "shoulders")
+    fuse_vertical: Annotated[
+        tuple[Literal["hips", "shoulders"], ...],
+        Field(
+            description="Of the fused pairs, these move along the vertical only: moved across, "
+            "the hips turn the thighs and change the knee angles the gait analysis reads",
+        ),
+    ] = ("hips",)
+    fuse_min_cameras: Annotated[
+        int, Field(ge=2, le=16, description="Fuse the detections only with this many cameras")
+    ] = 2
+    fuse_weight: Annotated[
+        float,
+        Field(gt=0, le=1, description="How far a fused point moves to its triangulation"),
+    ] = 0.5
+    fuse_max_gap_m: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=2,
+            description="A triangulation farther than this from the written point is not used",
+        ),
+    ] = 0.15
     initial: Annotated[
         bool,
         Field(

@@ -224,6 +224,9 @@ class KeypointCue:
         #: Per camera None or the detected nose and shoulders in units of the person's height
         #: (:func:`_face_points`), for :meth:`facing`; None without any.
         self._face: list[np.ndarray | None] | None = None
+        #: Per camera None or all 19 detected points ``(19, 2)`` in pixels, NaN where not
+        #: confident enough (:attr:`points`); None without any.
+        self._uv: list[np.ndarray | None] | None = None
 
     # -- the frame -------------------------------------------------------------------------
     def set_frame(
@@ -251,6 +254,7 @@ class KeypointCue:
             raise ValueError("heatmaps must be KeypointHeatmaps or None per camera")
         det: list[dict[str, np.ndarray] | None] = []
         face: list[np.ndarray | None] = []
+        points: list[np.ndarray | None] = []
         sigma = np.zeros(len(self.cameras))
         tol = np.zeros(len(self.cameras))
         c = self.config
@@ -258,6 +262,7 @@ class KeypointCue:
             if d is None:
                 det.append(None)
                 face.append(None)
+                points.append(None)
                 continue
             a = np.asarray(d, dtype=np.float64)
             if a.shape != (N_KEYPOINTS, 3):
@@ -268,6 +273,7 @@ class KeypointCue:
             uv = np.where(ok[:, None], a[:, :2], np.nan)
             height = float(np.nanmax(uv[:, 1]) - np.nanmin(uv[:, 1])) if ok.sum() >= 2 else 0.0
             face.append(_face_points(uv, height))
+            points.append(uv)
             parts = {p: np.stack([uv[list(lr)] for lr in PARTS[p]]) for p in self.parts}
             if ok.sum() < 2 or not any(np.isfinite(x).any() for x in parts.values()):
                 det.append(None)
@@ -282,6 +288,7 @@ class KeypointCue:
             self._heat = None if heatmaps is None else list(heatmaps)
             self._groups = {}
         self._face = face if any(f is not None for f in face) else None
+        self._uv = points if any(p is not None for p in points) else None
 
     def clear_frame(self) -> None:
         """No detections this frame: the cue does not score it."""
@@ -289,6 +296,14 @@ class KeypointCue:
         self._groups = {}
         self._heat = None
         self._face = None
+        self._uv = None
+
+    @property
+    def points(self) -> list[np.ndarray | None] | None:
+        """This frame's detected points per camera: None or ``(19, 2)`` pixels, NaN where a
+        point was not found or less confident than ``min_confidence``; None without any
+        (for :func:`tracker.triangulation.fuse_detections`)."""
+        return self._uv
 
     @property
     def has_frame(self) -> bool:
@@ -306,12 +321,12 @@ class KeypointCue:
 
     def frame_state(self) -> tuple | None:
         """This frame's detections, for :meth:`restore_frame` (the backward pass)."""
-        if self._det is None and self._face is None:
+        if self._det is None and self._face is None and self._uv is None:
             return None
         if self._det is None:
-            return None, None, None, self._face, None
+            return None, None, None, self._face, None, self._uv
         heat = None if self._heat is None else list(self._heat)
-        return list(self._det), self._sigma.copy(), self._tol.copy(), self._face, heat
+        return list(self._det), self._sigma.copy(), self._tol.copy(), self._face, heat, self._uv
 
     def restore_frame(self, state: tuple | None) -> None:
         """Set the frame kept by :meth:`frame_state` (None: no frame)."""
@@ -323,6 +338,7 @@ class KeypointCue:
             self._heat = state[4]
             self._groups = {}
         self._face = state[3]
+        self._uv = state[5]
 
     # -- facing ----------------------------------------------------------------------------
     def facing(self, joints: np.ndarray, min_profile: float) -> float | None:

@@ -78,6 +78,7 @@ from tracker.origin import search_origin
 from tracker.raster import numba_threads, prefer_passive_openmp
 from tracker.segmentation import Segmentation, Segmenter, downscale_mask, keep_blobs
 from tracker.smoothing import RESTART_STATUSES
+from tracker.triangulation import fuse_detections
 
 log = logging.getLogger(__name__)
 #: Seconds of the silhouettes' floor points kept (the seated mode's speed window is shorter).
@@ -844,6 +845,7 @@ class Tracker:
         self._remember_facing(joints, time_s, continuous=status == "tracked")
         self._prev_joints = joints
         pose, joints = self._output_arms(pose, joints)
+        joints = self._fuse_detections(joints)
         for n in notes:
             log.info("frame %d: %s", frame_index, n)
         return FrameResult(
@@ -1629,6 +1631,28 @@ class Tracker:
         if cue is None or cue.config.scope != scope or not cue.active:
             return None
         return lambda poses: cue.weight_factors(body, body.points(poses))
+
+    def _fuse_detections(self, joints: np.ndarray) -> np.ndarray:
+        """The written key points with ``keypoints.fuse``'s pairs averaged with this frame's
+        detections triangulated (``fuse_min_cameras`` cameras or more;
+        :func:`tracker.triangulation.fuse_detections`). The estimate, its particles and the
+        tracker's memory keep the model's points."""
+        kc = self.config.keypoints
+        cue = self.keypoint_cue
+        if cue is None or not kc.fuse or len(self.cameras) < kc.fuse_min_cameras:
+            return joints
+        points = cue.points
+        if points is None:
+            return joints
+        return fuse_detections(
+            joints,
+            self.cameras,
+            points,
+            kc.fuse,
+            weight=kc.fuse_weight,
+            max_gap_m=kc.fuse_max_gap_m,
+            vertical=kc.fuse_vertical,
+        )
 
     def _output_arms(self, pose: np.ndarray, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``edges.scope = "output"``: the written pose's arms are chosen by the arm search's

@@ -1,0 +1,175 @@
+"""Detections triangulated across cameras and averaged into the written key points
+(tracker.triangulation, ``keypoints.fuse``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from gaitwatch.conventions import KP
+from tracker.body import BodyModel
+from tracker.camera import Camera
+from tracker.config import KeypointConfig, TrackerConfig
+from tracker.triangulation import FUSE_PAIRS, fuse_detections, triangulate
+
+SIZE = (640, 480)
+
+
+@pytest.fixture(scope="module")
+def cameras() -> list[Camera]:
+    return [
+        Camera.look_at(name="side", position=[0.5, -4.0, 2.3], target=[0, 0, 0.9]).scaled(*SIZE),
+        Camera.look_at(name="front", position=[4.0, 0.3, 2.3], target=[0, 0, 0.9]).scaled(*SIZE),
+    ]
+
+
+@pytest.fixture(scope="module")
+def joints() -> np.ndarray:
+    body = BodyModel(1.72)
+    return np.asarray(body.forward(body.neutral_pose(0.0, 0.0, 0.3)[None]))[0]
+
+
+def _seen(cameras, points: np.ndarray) -> list[np.ndarray]:
+    return [cam.project(points) for cam in cameras]
+
+
+def test_triangulate_recovers_a_point_and_refuses_bad_geometry(cameras) -> None:
+    x = np.array([0.2, -0.1, 1.1])
+    px = np.stack([cam.project(x[None])[0] for cam in cameras])
+    np.testing.assert_allclose(triangulate(cameras, px), x, atol=1e-9)
+    # a distorted lens: the rays are undistorted first
+    lens = Camera.from_params(
+        name="lens", K=cameras[0].K, R=cameras[0].R, t=cameras[0].t, image_size=SIZE,
+        dist=[-0.2, 0.05, 0.0, 0.0, 0.0],
+    )  # fmt: skip
+    both = [lens, cameras[1]]
+    px = np.stack([cam.project(x[None])[0] for cam in both])
+    np.testing.assert_allclose(triangulate(both, px), x, atol=1e-6)
+    assert triangulate(cameras[:1], px[:1]) is None  # one camera: no depth
+    assert triangulate(cameras, np.array([[np.nan, 1.0], [2.0, 3.0]])) is None
+    twin = [cameras[0], cameras[0]]  # the same ray twice: nothing to intersect
+    assert triangulate(twin, np.stack([px[0], px[0]])) is None
+
+
+def test_fuse_moves_the_chosen_points_half_way(cameras, joints) -> None:
+    """Detections of points 4 cm from the written ones: the fused pairs move half way there,
+    whatever the labels each camera gave; the other points do not move."""
+    true = joints.copy()
+    shift = np.array([0.03, -0.02, 0.02])
+    for name in ("hips", "shoulders"):
+        true[list(FUSE_PAIRS[name])] += shift
+    dets = _seen(cameras, true)
+    side = [KP["left_hip"], KP["right_hip"], KP["left_shoulder"], KP["right_shoulder"]]
+    swap = [KP["right_hip"], KP["left_hip"], KP["right_shoulder"], KP["left_shoulder"]]
+    dets[1][side] = dets[1][swap]  # the front camera's labels exchanged
+    out = fuse_detections(joints, cameras, dets, ("hips", "shoulders"))
+    np.testing.assert_allclose(out[side], joints[side] + 0.5 * shift, atol=1e-6)
+    # the sacrum (not detected) moves with the hips' midpoint
+    np.testing.assert_allclose(out[KP["sacrum"]], joints[KP["sacrum"]] + 0.5 * shift, atol=1e-6)
+    rest = [i for i in range(len(joints)) if i not in [*side, KP["sacrum"]]]
+    np.testing.assert_array_equal(out[rest], joints[rest])
+    only = fuse_detections(joints, cameras, dets, ("hips",), weight=1.0)
+    np.testing.assert_allclose(only[side[:2]], true[side[:2]], atol=1e-6)
+    np.testing.assert_array_equal(only[side[2:]], joints[side[2:]])
+    shoulders = fuse_detections(joints, cameras, dets, ("shoulders",))
+    np.testing.assert_array_equal(shoulders[KP["sacrum"]], joints[KP["sacrum"]])
+    # the hips along the vertical only (the default): x and y stay, z moves half way
+    up = fuse_detections(joints, cameras, dets, ("hips", "shoulders"), vertical=("hips",))
+    half_z = np.array([0.0, 0.0, 0.5 * shift[2]])
+    np.testing.assert_allclose(up[side[:2]], joints[side[:2]] + half_z, atol=1e-6)
+    np.testing.assert_allclose(up[KP["sacrum"]], joints[KP["sacrum"]] + half_z, atol=1e-6)
+    np.testing.assert_allclose(up[side[2:]], joints[side[2:]] + 0.5 * shift, atol=1e-6)
+    assert np.array_equal(fuse_detections(joints, cameras, dets, ()), joints)
+
+
+def test_fuse_leaves_points_it_cannot_trust(cameras, joints) -> None:
+    lh, rh = KP["left_hip"], KP["right_hip"]
+    far = joints.copy()
+    far[lh] += [0.0, 0.0, 0.3]  # the detection 30 cm off: beyond max_gap_m
+    dets = _seen(cameras, far)
+    out = fuse_detections(joints, cameras, dets, ("hips",), max_gap_m=0.15)
+    np.testing.assert_array_equal(out[lh], joints[lh])
+    near = fuse_detections(joints, cameras, dets, ("hips",), max_gap_m=0.5)
+    assert np.linalg.norm(near[lh] - joints[lh]) == pytest.approx(0.15, abs=1e-6)
+    missing = _seen(cameras, joints + 0.02)
+    missing[1][rh] = np.nan  # seen by one camera only
+    out = fuse_detections(joints, cameras, missing, ("hips",))
+    np.testing.assert_array_equal(out[rh], joints[rh])
+    np.testing.assert_allclose(out[lh], joints[lh] + 0.01, atol=1e-6)
+    # one hip moved: the sacrum by half its move
+    np.testing.assert_allclose(out[KP["sacrum"]], joints[KP["sacrum"]] + 0.005, atol=1e-6)
+    one = fuse_detections(joints, cameras, [missing[0], None], ("hips",))  # one camera: nothing
+    np.testing.assert_array_equal(one, joints)
+    with pytest.raises(ValueError, match="for 2 cameras"):
+        fuse_detections(joints, cameras, missing[:1], ("hips",))
+
+
+def test_fuse_config() -> None:
+    kc = TrackerConfig().keypoints
+    assert kc.fuse == ("hips", "shoulders") and kc.fuse_min_cameras == 2
+    assert kc.fuse_vertical == ("hips",)
+    assert set(FUSE_PAIRS) == {"hips", "shoulders"}
+    with pytest.raises(ValidationError):
+        KeypointConfig(fuse=("knees",))  # measured to lose: not offered
+    with pytest.raises(ValidationError):
+        KeypointConfig(fuse_min_cameras=1)
+    with pytest.raises(ValidationError):
+        KeypointConfig(fuse_weight=0.0)
+
+
+def test_tracker_writes_fused_points_with_two_cameras_only() -> None:
+    """Through the pipeline with perfect detections of the rendered body: with two cameras the
+    written hips and shoulders are averaged with the triangulated detections (the hips and the
+    sacrum along the vertical only; the pose is the model's); with one camera, or with
+    ``fuse`` empty, the written points are the model's."""
+    from tests.test_keypoints2d import _detections
+    from tracker.likelihood import SilhouetteLikelihood
+    from tracker.pipeline import Tracker
+    from tracker.synthetic import render_clip, side_cameras, textured_background, walking_motion
+
+    rng = np.random.default_rng(5)
+    body = BodyModel(1.70)
+    cams = side_cameras(2, image_size=(320, 240), centre=(1.0, 0.0), fps=20.0)
+    poses = walking_motion(body, 3, fps=20.0, speed_m_s=1.0, start_xy=(0.2, 0.0))
+    bgs = [textured_background(320, 240, rng) for _ in cams]
+    frames = list(render_clip(SilhouetteLikelihood(body, cams), poses, bgs, rng))
+    truth = np.asarray(body.forward(poses))
+    fused = [KP[n] for n in ("left_hip", "right_hip", "left_shoulder", "right_shoulder")]
+    moving = [*fused, KP["sacrum"]]
+
+    def run(cams_used, fuse):
+        cfg = TrackerConfig.model_validate(
+            {"ipf": {"kept": 9}, "keypoints": {"enabled": True, "detector": "none", "fuse": fuse}}
+        )
+        idx = [cams.index(c) for c in cams_used]
+        tr = Tracker(
+            cams_used, cfg, rng=np.random.default_rng(0), height_m=1.70,
+            backgrounds=[bgs[i] for i in idx],
+        )  # fmt: skip
+        out = []
+        for k, images in enumerate(frames):
+            kp = _detections(body, poses[k], cams_used)
+            out.append(tr.process(k, k / 20.0, [images[i] for i in idx], keypoints=kp))
+        return tr, out
+
+    tr, on = run(cams, ("hips", "shoulders"))
+    _, off = run(cams, ())
+    moved = 0
+    for k, (a, b) in enumerate(zip(on, off, strict=True)):
+        np.testing.assert_array_equal(a.pose, b.pose)
+        model = np.asarray(tr.body.forward(a.pose[None]))[0]
+        np.testing.assert_allclose(b.joints, model, atol=1e-9)
+        rest = [i for i in range(19) if i not in moving]
+        np.testing.assert_array_equal(a.joints[rest], b.joints[rest])
+        pelvis = [KP["left_hip"], KP["right_hip"], KP["sacrum"]]
+        np.testing.assert_array_equal(a.joints[pelvis, :2], b.joints[pelvis, :2])
+        err_on = np.linalg.norm(a.joints[fused] - truth[k, fused], axis=1)
+        err_off = np.linalg.norm(b.joints[fused] - truth[k, fused], axis=1)
+        moved += int(np.sum(err_on < err_off - 1e-6))
+        assert np.all(err_on <= err_off + 1e-6)
+    assert moved > 0
+    _, one_on = run(cams[:1], ("hips", "shoulders"))
+    _, one_off = run(cams[:1], ())
+    for a, b in zip(one_on, one_off, strict=True):
+        np.testing.assert_array_equal(a.joints, b.joints)

@@ -1,0 +1,124 @@
+"""Detected 2D key points triangulated across cameras, and averaged into the written key points.
+
+With two cameras or more, the 2D detector's points of one landmark seen by several cameras meet
+in 3D (:func:`triangulate`: the point nearest every camera's ray through its detection, in
+least squares). The tracker's written key points come from its body model fitted to the
+silhouettes and cues; where the model's key points lie inside a volume the silhouettes do not
+pin (the hip joints inside the pelvis, the shoulders at the trunk's edge), the triangulated
+detections err about as much but largely independently: on the benchmark's two-camera walks
+the estimate's hips erred 61 mm and the triangulated detections' 55 mm, their half-way point 44
+mm (docs/tracker.md, "Session 48"). :func:`fuse_detections` writes that average for the chosen
+pairs of points (``keypoints.fuse``), and moves the sacrum (which the detector does not give)
+with the hips' midpoint; the tracker's own pose, particles and memory keep the model's.
+Sides: each camera's detected left and right point are matched to the written ones, kept or
+exchanged, whichever lies nearer their projections (the detector's labels are not trusted, as
+in the key-point cue).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from gaitwatch.conventions import KP, SACRUM
+from tracker.camera import Camera
+
+#: The pairs of points ``keypoints.fuse`` can name (the ones measured to gain: the legs' and
+#: arms' detections triangulated err more than the model's points, docs/tracker.md "Session 48").
+FUSE_PAIRS: dict[str, tuple[int, int]] = {
+    "hips": (KP["left_hip"], KP["right_hip"]),
+    "shoulders": (KP["left_shoulder"], KP["right_shoulder"]),
+}
+
+
+def triangulate(cameras: Sequence[Camera], pixels: np.ndarray) -> np.ndarray | None:
+    """The world point (3,) nearest the rays of ``cameras`` through ``pixels`` (N, 2) (least
+    squares of the distances to the rays; lens distortion undone). None with fewer than two
+    cameras, rays too nearly parallel to meet, or a point behind one of the cameras."""
+    px = np.asarray(pixels, dtype=np.float64)
+    if len(cameras) < 2 or px.shape != (len(cameras), 2) or not np.isfinite(px).all():
+        return None
+    a = np.zeros((3, 3))
+    b = np.zeros(3)
+    for cam, p in zip(cameras, px, strict=True):
+        d = cam.pixel_rays(p[None])[0]
+        m = np.eye(3) - np.outer(d, d)
+        a += m
+        b += m @ np.asarray(cam.center, dtype=np.float64)
+    if np.linalg.cond(a) > 1e6:
+        return None
+    x = np.linalg.solve(a, b)
+    if any(float(cam.depth(x[None])[0]) <= 0 for cam in cameras):
+        return None
+    return x
+
+
+def _matched(cam: Camera, det: np.ndarray, joints: np.ndarray, pair: tuple[int, int]):
+    """The camera's detected pixels (2, 2) of ``pair`` in the written points' order: as
+    labelled or exchanged, whichever lies nearer the written points' projections (NaN rows:
+    not detected)."""
+    li, ri = pair
+    proj = cam.project(joints[[li, ri]])
+    same, swapped = det[[li, ri], :2], det[[ri, li], :2]
+    d_same = np.linalg.norm(same - proj, axis=1)
+    d_swap = np.linalg.norm(swapped - proj, axis=1)
+    both = np.isfinite(d_same) & np.isfinite(d_swap)
+    if not both.any():
+        return same
+    return swapped if d_swap[both].sum() < d_same[both].sum() else same
+
+
+def fuse_detections(
+    joints: np.ndarray,
+    cameras: Sequence[Camera],
+    detections: Sequence[np.ndarray | None],
+    pairs: Sequence[str],
+    *,
+    weight: float = 0.5,
+    max_gap_m: float = 0.15,
+    vertical: Sequence[str] = (),
+) -> np.ndarray:
+    """``joints`` (19, 3) with each point of ``pairs`` (names of :data:`FUSE_PAIRS`) moved
+    ``weight`` of the way to its triangulated detection, where at least two cameras detect it
+    and the two lie within ``max_gap_m`` of each other (farther: the detections or the
+    estimate are wrong, and the written point stays). The pairs named in ``vertical`` move
+    along the vertical (z) only. With the hips, the sacrum moves by the mean of the two hips'
+    moves (the pelvis is rigid). ``detections``: per camera None or the
+    detected pixels ``(19, 2)`` in the cameras' frame pixels, NaN where a point was not found
+    or not confident enough. Returns a new array; ``joints`` is not changed."""
+    out = np.array(joints, dtype=np.float64, copy=True)
+    if len(detections) != len(cameras):
+        raise ValueError(f"expected detections for {len(cameras)} cameras, got {len(detections)}")
+    seen = [
+        (c, np.asarray(d, dtype=np.float64))
+        for c, d in zip(cameras, detections, strict=True)
+        if d is not None
+    ]
+    if len(seen) < 2 or not np.isfinite(out).all():
+        return out
+    for name in pairs:
+        pair = FUSE_PAIRS[name]
+        before = out[list(pair)].copy()
+        matched = [_matched(c, d, out, pair) for c, d in seen]
+        for k, point in enumerate(pair):
+            use = [
+                (c, m[k])
+                for (c, _), m in zip(seen, matched, strict=True)
+                if np.isfinite(m[k]).all()
+            ]
+            if len(use) < 2:
+                continue
+            x = triangulate([c for c, _ in use], np.stack([p for _, p in use]))
+            if x is None or np.linalg.norm(x - out[point]) > max_gap_m:
+                continue
+            step = weight * (x - out[point])
+            if name in vertical:
+                step[:2] = 0.0
+            out[point] = out[point] + step
+        if name == "hips":  # the pelvis is rigid: the sacrum moves with the hips' midpoint
+            out[SACRUM] += (out[list(pair)] - before).mean(axis=0)
+    return out
+
+
+__all__ = ["FUSE_PAIRS", "fuse_detections", "triangulate"]
