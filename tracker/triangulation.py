@@ -84,7 +84,9 @@ def fuse_detections(
     and the two lie within ``max_gap_m`` of each other (farther: the detections or the
     estimate are wrong, and the written point stays). The pairs named in ``vertical`` move
     along the vertical (z) only. With the hips, the sacrum moves by the mean of the two hips'
-    moves (the pelvis is rigid). ``detections``: per camera None or the
+    moves along all three axes, ``vertical`` or not (the pelvis is rigid; the sacrum is not in
+    the knee angles, and the gait events read its horizontal place). ``detections``: per camera
+    None or the
     detected pixels ``(19, 2)`` in the cameras' frame pixels, NaN where a point was not found
     or not confident enough. Returns a new array; ``joints`` is not changed."""
     out = np.array(joints, dtype=np.float64, copy=True)
@@ -99,7 +101,7 @@ def fuse_detections(
         return out
     for name in pairs:
         pair = FUSE_PAIRS[name]
-        before = out[list(pair)].copy()
+        steps = np.zeros((2, 3))
         matched = [_matched(c, d, out, pair) for c, d in seen]
         for k, point in enumerate(pair):
             use = [
@@ -112,12 +114,10 @@ def fuse_detections(
             x = triangulate([c for c, _ in use], np.stack([p for _, p in use]))
             if x is None or np.linalg.norm(x - out[point]) > max_gap_m:
                 continue
-            step = weight * (x - out[point])
-            if name in vertical:
-                step[:2] = 0.0
-            out[point] = out[point] + step
-        if name == "hips":  # the pelvis is rigid: the sacrum moves with the hips' midpoint
-            out[SACRUM] += (out[list(pair)] - before).mean(axis=0)
+            steps[k] = weight * (x - out[point])
+            out[point] = out[point] + (steps[k] * [0.0, 0.0, 1.0] if name in vertical else steps[k])
+        if name == "hips":  # the sacrum moves with the hips' midpoint, along every axis
+            out[SACRUM] += steps.mean(axis=0)
     return out
 
 
