@@ -67,3 +67,22 @@ def factored_equals_flat(lik, base, left, right, rtol):
     w = lik.weights(flat).reshape(m, na, nb)
     np.testing.assert_allclose(wf, w, rtol=rtol, atol=1e-15)
     return flat, w
+
+
+def assert_written_is_model(written: np.ndarray, model: np.ndarray) -> None:
+    """The written key points (19, 3) are the model's forward kinematics ``model``, but for the
+    points ``keypoints.fuse`` averages with the triangulated detections (two cameras: the hips'
+    height, the sacrum and the shoulders), which lie within half of ``fuse_max_gap_m`` of the
+    model's (the hips straight above or below)."""
+    from gaitwatch.conventions import KP
+    from tracker.config import KeypointConfig
+
+    kc = KeypointConfig()
+    fused = [KP[n] for n in ("left_hip", "right_hip", "sacrum", "left_shoulder", "right_shoulder")]
+    rest = [i for i in range(len(model)) if i not in fused]
+    np.testing.assert_allclose(written[rest], model[rest], atol=1e-9)
+    hips = [KP["left_hip"], KP["right_hip"]]
+    np.testing.assert_allclose(written[hips, :2], model[hips, :2], atol=1e-9)
+    # the sacrum moves by the hips' mean step, each at most weight x gap
+    reach = kc.fuse_weight * kc.fuse_max_gap_m + 1e-9
+    assert np.all(np.linalg.norm(written[fused] - model[fused], axis=1) <= reach)
