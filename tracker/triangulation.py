@@ -8,11 +8,12 @@ pin (the hip joints inside the pelvis, the shoulders at the trunk's edge), the t
 detections err about as much but largely independently: on the benchmark's two-camera walks
 the estimate's hips erred 61 mm and the triangulated detections' 55 mm, their half-way point 44
 mm (docs/tracker.md, "Session 48"). :func:`fuse_detections` writes that average for the chosen
-pairs of points (``keypoints.fuse``), and moves the sacrum (which the detector does not give)
-with the hips' midpoint; the tracker's own pose, particles and memory keep the model's.
-Sides: each camera's detected left and right point are matched to the written ones, kept or
-exchanged, whichever lies nearer their projections (the detector's labels are not trusted, as
-in the key-point cue).
+pairs of points (``keypoints.fuse``; the hips along the vertical only by default, since moved
+across they turn the thighs and the knee angles), and moves the sacrum (which the detector
+does not give) with the triangulated hips; the tracker's own pose, particles and memory keep
+the model's. Sides: each camera's detected left and right point are matched to the written
+ones, kept or exchanged, whichever lies nearer their projections (the detector's labels are
+not trusted, as in the key-point cue).
 """
 
 from __future__ import annotations
@@ -84,11 +85,11 @@ def fuse_detections(
     and the two lie within ``max_gap_m`` of each other (farther: the detections or the
     estimate are wrong, and the written point stays). The pairs named in ``vertical`` move
     along the vertical (z) only. With the hips, the sacrum moves by the mean of the two hips'
-    moves along all three axes, ``vertical`` or not (the pelvis is rigid; the sacrum is not in
-    the knee angles, and the gait events read its horizontal place). ``detections``: per camera
-    None or the
-    detected pixels ``(19, 2)`` in the cameras' frame pixels, NaN where a point was not found
-    or not confident enough. Returns a new array; ``joints`` is not changed."""
+    steps towards their triangulations, along all three axes whatever ``vertical`` says (as a
+    rigid pelvis would; the sacrum is in no knee angle, and the gait events read its place along
+    the walk). ``detections``: per camera None or the detected pixels ``(19, 2)`` in the
+    cameras' frame pixels, NaN where a point was not found or not confident enough. Returns a
+    new array; ``joints`` is not changed."""
     out = np.array(joints, dtype=np.float64, copy=True)
     if len(detections) != len(cameras):
         raise ValueError(f"expected detections for {len(cameras)} cameras, got {len(detections)}")
@@ -116,7 +117,7 @@ def fuse_detections(
                 continue
             steps[k] = weight * (x - out[point])
             out[point] = out[point] + (steps[k] * [0.0, 0.0, 1.0] if name in vertical else steps[k])
-        if name == "hips":  # the sacrum moves with the hips' midpoint, along every axis
+        if name == "hips":  # the sacrum follows the hips' mean step, along every axis
             out[SACRUM] += steps.mean(axis=0)
     return out
 
