@@ -124,16 +124,11 @@ def test_tracker_writes_fused_points_with_two_cameras_only() -> None:
     the vertical only; the pose is the model's); with one camera, or with
     ``fuse`` empty, the written points are the model's."""
     from tests.test_keypoints2d import _detections
-    from tracker.likelihood import SilhouetteLikelihood
+    from tests.tracker_helpers import walking_clip
     from tracker.pipeline import Tracker
-    from tracker.synthetic import render_clip, side_cameras, textured_background, walking_motion
 
-    rng = np.random.default_rng(5)
-    body = BodyModel(1.70)
-    cams = side_cameras(2, image_size=(320, 240), centre=(1.0, 0.0), fps=20.0)
-    poses = walking_motion(body, 3, fps=20.0, speed_m_s=1.0, start_xy=(0.2, 0.0))
-    bgs = [textured_background(320, 240, rng) for _ in cams]
-    frames = list(render_clip(SilhouetteLikelihood(body, cams), poses, bgs, rng))
+    clip = walking_clip()
+    body, cams, bgs, frames, poses = (clip[k] for k in ("body", "cams", "bgs", "frames", "poses"))
     truth = np.asarray(body.forward(poses))
     fused = [KP[n] for n in ("left_hip", "right_hip", "left_shoulder", "right_shoulder")]
     moving = [*fused, KP["sacrum"]]

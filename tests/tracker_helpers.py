@@ -41,7 +41,7 @@ def own_likelihood(body: BodyModel, pose: np.ndarray, n_cams: int = 2) -> Silhou
 
 def walking_clip() -> dict:
     """Three 20 Hz frames of the model walking, seen by two 320x240 cameras: body, cameras,
-    backgrounds, frames."""
+    backgrounds, frames and the poses rendered."""
     from tracker.synthetic import render_clip, side_cameras, textured_background, walking_motion
 
     rng = np.random.default_rng(7)
@@ -50,7 +50,7 @@ def walking_clip() -> dict:
     poses = walking_motion(body, 3, fps=20.0, speed_m_s=1.0)
     bgs = [textured_background(320, 240, rng) for _ in cams]
     frames = list(render_clip(SilhouetteLikelihood(body, cams), poses, bgs, rng))
-    return {"body": body, "cams": cams, "bgs": bgs, "frames": frames}
+    return {"body": body, "cams": cams, "bgs": bgs, "frames": frames, "poses": poses}
 
 
 def factored_equals_flat(lik, base, left, right, rtol):
