@@ -11,7 +11,13 @@ from gaitwatch.conventions import KP
 from tracker.body import BodyModel
 from tracker.camera import Camera
 from tracker.config import KeypointConfig, TrackerConfig
-from tracker.triangulation import FUSE_PAIRS, fuse_detections, triangulate
+from tracker.triangulation import (
+    FUSE_PAIRS,
+    RAY_PAIRS,
+    fuse_along_rays,
+    fuse_detections,
+    triangulate,
+)
 
 SIZE = (640, 480)
 
@@ -105,6 +111,73 @@ def test_fuse_leaves_points_it_cannot_trust(cameras, joints) -> None:
         fuse_detections(joints, cameras, missing[:1], ("hips",))
 
 
+def _across(cam: Camera, step: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """``step`` without its component along the camera's line of sight through ``point``."""
+    ray = point - cam.center
+    ray /= np.linalg.norm(ray)
+    return step - (step @ ray) * ray
+
+
+def test_rays_move_points_across_the_line_of_sight(cameras, joints) -> None:
+    """One camera: each chosen point moves half way to the ray through its detection, at the
+    model's distance from the camera; the sides are matched limb by limb whatever the
+    detector's labels; the sacrum moves with the hips; the other points stay."""
+    cam = cameras[0]
+    shift = np.array([0.04, 0.03, -0.02])  # a component along the line of sight too
+    names = ("hips", "heels", "toes", "shoulders", "elbows", "wrists")
+    moved = sorted(i for n in names for i in RAY_PAIRS[n])
+    true = joints.copy()
+    true[moved] += shift
+    det = cam.project(true)
+    legs = [RAY_PAIRS[n] for n in ("hips", "knees", "ankles", "heels", "toes")]
+    left, right = [p[0] for p in legs], [p[1] for p in legs]
+    det[left + right] = det[right + left]  # the legs' labels exchanged
+    out = fuse_along_rays(joints, cam, det, names)
+    for i in moved:
+        step = out[i] - joints[i]
+        ray = cam.pixel_rays(cam.project(true[i][None]))[0]  # through the point's own detection
+        assert abs(step @ ray) < 1e-9  # nothing along the detection's ray
+        assert np.linalg.norm(step) == pytest.approx(
+            0.5 * np.linalg.norm(_across(cam, shift, joints[i])), rel=0.05
+        )
+    hips = list(RAY_PAIRS["hips"])
+    np.testing.assert_allclose(
+        out[KP["sacrum"]] - joints[KP["sacrum"]], (out[hips] - joints[hips]).mean(axis=0)
+    )
+    rest = [i for i in range(len(joints)) if i not in [*moved, KP["sacrum"]]]
+    np.testing.assert_array_equal(out[rest], joints[rest])
+    # distance from the camera kept (to first order)
+    d0 = np.linalg.norm(joints[moved] - cam.center, axis=1)
+    d1 = np.linalg.norm(out[moved] - cam.center, axis=1)
+    np.testing.assert_allclose(d1, d0, atol=2e-3)
+    # the hips along the vertical only: their x and y stay, their z moves as before, and the
+    # sacrum still takes their mean step along every axis
+    up = fuse_along_rays(joints, cam, det, names, vertical=("hips",))
+    np.testing.assert_array_equal(up[hips, :2], joints[hips, :2])
+    np.testing.assert_allclose(up[hips, 2], out[hips, 2])
+    np.testing.assert_allclose(up[KP["sacrum"]], out[KP["sacrum"]])
+    others = [i for i in moved if i not in hips]
+    np.testing.assert_allclose(up[others], out[others])
+    assert np.array_equal(fuse_along_rays(joints, cam, det, ()), joints)
+    assert np.array_equal(fuse_along_rays(joints, cam, None, names), joints)
+
+
+def test_rays_leave_points_they_cannot_trust(cameras, joints) -> None:
+    cam = cameras[0]
+    lw, rw = KP["left_wrist"], KP["right_wrist"]
+    far = joints.copy()
+    far[lw] += [0.0, 0.0, 0.4]  # 40 cm off: beyond fuse_ray_max_gap_m
+    far[rw] += [0.0, 0.0, 0.1]
+    det = cam.project(far)
+    det[KP["left_heel"]] = np.nan  # not detected
+    out = fuse_along_rays(joints, cam, det, ("wrists", "heels"), max_gap_m=0.3)
+    np.testing.assert_array_equal(out[lw], joints[lw])
+    np.testing.assert_array_equal(out[KP["left_heel"]], joints[KP["left_heel"]])
+    assert 0.01 < np.linalg.norm(out[rw] - joints[rw]) < 0.05
+    with pytest.raises(ValueError, match="19, 2"):
+        fuse_along_rays(joints, cam, det[:5], ("wrists",))
+
+
 def test_fuse_config() -> None:
     kc = TrackerConfig().keypoints
     assert kc.fuse == ("hips", "shoulders") and kc.fuse_min_cameras == 2
@@ -114,15 +187,22 @@ def test_fuse_config() -> None:
         KeypointConfig(fuse=("knees",))  # measured to lose: not offered
     with pytest.raises(ValidationError):
         KeypointConfig(fuse_min_cameras=1)
+    assert kc.fuse_rays == ("hips", "heels", "toes", "shoulders", "elbows", "wrists")
+    assert set(kc.fuse_rays) <= set(RAY_PAIRS)
+    with pytest.raises(ValidationError):
+        KeypointConfig(fuse_rays=("neck",))
+    with pytest.raises(ValidationError):
+        KeypointConfig(fuse_ray_max_gap_m=0.0)
     with pytest.raises(ValidationError):
         KeypointConfig(fuse_weight=0.0)
 
 
-def test_tracker_writes_fused_points_with_two_cameras_only() -> None:
+def test_tracker_writes_fused_points() -> None:
     """Through the pipeline with perfect detections of the rendered body: with two cameras the
     written hips and shoulders are averaged with the triangulated detections (the hips along
-    the vertical only; the pose is the model's); with one camera, or with
-    ``fuse`` empty, the written points are the model's."""
+    the vertical only); with one camera ``fuse_rays``' points move across the line of sight
+    towards their detections. The pose is the model's either way; with ``fuse`` and
+    ``fuse_rays`` empty, the written points are the model's."""
     from tests.test_keypoints2d import _detections
     from tests.tracker_helpers import walking_clip
     from tracker.pipeline import Tracker
@@ -133,10 +213,15 @@ def test_tracker_writes_fused_points_with_two_cameras_only() -> None:
     fused = [KP[n] for n in ("left_hip", "right_hip", "left_shoulder", "right_shoulder")]
     moving = [*fused, KP["sacrum"]]
 
-    def run(cams_used, fuse):
+    def run(cams_used, fuse, rays=()):
         cfg = TrackerConfig.model_validate(
-            {"ipf": {"kept": 9}, "keypoints": {"enabled": True, "detector": "none", "fuse": fuse}}
-        )
+            {
+                "ipf": {"kept": 9},
+                "keypoints": {
+                    "enabled": True, "detector": "none", "fuse": fuse, "fuse_rays": rays,
+                },
+            }
+        )  # fmt: skip
         idx = [cams.index(c) for c in cams_used]
         tr = Tracker(
             cams_used, cfg, rng=np.random.default_rng(0), height_m=1.70,
@@ -148,7 +233,8 @@ def test_tracker_writes_fused_points_with_two_cameras_only() -> None:
             out.append(tr.process(k, k / 20.0, [images[i] for i in idx], keypoints=kp))
         return tr, out
 
-    tr, on = run(cams, ("hips", "shoulders"))
+    rays = ("hips", "shoulders", "elbows", "wrists")
+    tr, on = run(cams, ("hips", "shoulders"), rays)  # two cameras: the rays are not used
     _, off = run(cams, ())
     moved = 0
     for k, (a, b) in enumerate(zip(on, off, strict=True)):
@@ -164,7 +250,40 @@ def test_tracker_writes_fused_points_with_two_cameras_only() -> None:
         moved += int(np.sum(err_on < err_off - 1e-6))
         assert np.all(err_on <= err_off + 1e-6)
     assert moved > 0
-    _, one_on = run(cams[:1], ("hips", "shoulders"))
-    _, one_off = run(cams[:1], ())
-    for a, b in zip(one_on, one_off, strict=True):
-        np.testing.assert_array_equal(a.joints, b.joints)
+
+    cam = cams[0]
+    _, one_on = run(cams[:1], ("hips", "shoulders"), rays)
+    _, one_off = run(cams[:1], ("hips", "shoulders"))
+    _, none = run(cams[:1], ())
+    along = sorted(i for n in rays for i in RAY_PAIRS[n])
+    hips = list(RAY_PAIRS["hips"])
+    legs = ("hips", "knees", "ankles", "heels", "toes")
+    limbs = [
+        [RAY_PAIRS[n] for n in legs],
+        [RAY_PAIRS[n] for n in ("shoulders", "elbows", "wrists")],
+    ]
+    err_on, err_off = [], []
+    for k, (a, b, c) in enumerate(zip(one_on, one_off, none, strict=True)):
+        np.testing.assert_array_equal(a.pose, b.pose)
+        np.testing.assert_array_equal(b.joints, c.joints)  # one camera: nothing triangulated
+        rest = [i for i in range(19) if i not in [*along, KP["sacrum"]]]
+        np.testing.assert_array_equal(a.joints[rest], b.joints[rest])
+        # the hips move along the vertical only (fuse_vertical); the other moved points keep
+        # their distance from the camera (to first order)
+        np.testing.assert_array_equal(a.joints[hips, :2], b.joints[hips, :2])
+        across = [i for i in along if i not in hips]
+        dist = [np.linalg.norm(j[across] - cam.center, axis=1) for j in (a.joints, b.joints)]
+        np.testing.assert_allclose(dist[0], dist[1], atol=0.01)
+        seen = cam.project(truth[k])
+        for limb in limbs:  # each limb's detected sides as the fusion matched them
+            left, right = [p[0] for p in limb], [p[1] for p in limb]
+            model = cam.project(b.joints)
+            same = np.linalg.norm(model[left + right] - seen[left + right], axis=1).sum()
+            swap = np.linalg.norm(model[left + right] - seen[right + left], axis=1).sum()
+            target = seen[right + left] if swap < same else seen[left + right]
+            fused = np.isin(left + right, along)
+            for j, out in ((a.joints, err_on), (b.joints, err_off)):
+                err = np.linalg.norm(cam.project(j[left + right]) - target, axis=1)
+                out.append(err[fused])
+    # in the image the written points come half way to the detections
+    assert np.mean(np.concatenate(err_on)) < 0.7 * np.mean(np.concatenate(err_off))

@@ -1464,8 +1464,9 @@ class KeypointConfig(_Model):
     fuse_vertical: Annotated[
         tuple[Literal["hips", "shoulders"], ...],
         Field(
-            description="Of the fused pairs, these move along the vertical only: moved across, "
-            "the hips turn the thighs and change the knee angles the gait analysis reads",
+            description="Of the fused pairs (fuse and fuse_rays), these move along the vertical "
+            "only: moved across, the hips turn the thighs and change the knee angles the gait "
+            "analysis reads",
         ),
     ] = ("hips",)
     fuse_min_cameras: Annotated[
@@ -1483,6 +1484,27 @@ class KeypointConfig(_Model):
             description="A triangulation farther than this from the written point is not used",
         ),
     ] = 0.15
+    fuse_rays: Annotated[
+        tuple[
+            Literal["hips", "knees", "ankles", "heels", "toes", "shoulders", "elbows", "wrists"],
+            ...,
+        ],
+        Field(
+            description="With one camera: pairs of written key points moved fuse_weight of the "
+            "way across the line of sight towards the rays through their detections (their "
+            "distance from the camera stays the model's; tracker.triangulation.fuse_along_rays). "
+            "Not the knees, nor the ankles: moved, they change the knee angles the gait analysis "
+            'reads. Empty: none (docs/tracker.md, "Session 49")',
+        ),
+    ] = ("hips", "heels", "toes", "shoulders", "elbows", "wrists")
+    fuse_ray_max_gap_m: Annotated[
+        float,
+        Field(
+            gt=0,
+            le=2,
+            description="A ray farther than this from the written point is not used (one camera)",
+        ),
+    ] = 0.3
     initial: Annotated[
         bool,
         Field(

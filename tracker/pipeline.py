@@ -78,7 +78,7 @@ from tracker.origin import search_origin
 from tracker.raster import numba_threads, prefer_passive_openmp
 from tracker.segmentation import Segmentation, Segmenter, downscale_mask, keep_blobs
 from tracker.smoothing import RESTART_STATUSES
-from tracker.triangulation import fuse_detections
+from tracker.triangulation import fuse_along_rays, fuse_detections
 
 log = logging.getLogger(__name__)
 #: Seconds of the silhouettes' floor points kept (the seated mode's speed window is shorter).
@@ -1635,14 +1635,26 @@ class Tracker:
     def _fuse_detections(self, joints: np.ndarray) -> np.ndarray:
         """The written key points with ``keypoints.fuse``'s pairs averaged with this frame's
         detections triangulated (``fuse_min_cameras`` cameras or more;
-        :func:`tracker.triangulation.fuse_detections`). The estimate, its particles and the
+        :func:`tracker.triangulation.fuse_detections`), or with one camera ``fuse_rays``'
+        pairs moved across the line of sight towards their detections
+        (:func:`tracker.triangulation.fuse_along_rays`). The estimate, its particles and the
         tracker's memory keep the model's points."""
         kc = self.config.keypoints
         cue = self.keypoint_cue
-        if cue is None or not kc.fuse or len(self.cameras) < kc.fuse_min_cameras:
+        if cue is None or cue.points is None:
             return joints
         points = cue.points
-        if points is None:
+        if len(self.cameras) == 1:
+            return fuse_along_rays(
+                joints,
+                self.cameras[0],
+                points[0],
+                kc.fuse_rays,
+                weight=kc.fuse_weight,
+                max_gap_m=kc.fuse_ray_max_gap_m,
+                vertical=kc.fuse_vertical,
+            )
+        if not kc.fuse or len(self.cameras) < kc.fuse_min_cameras:
             return joints
         return fuse_detections(
             joints,

@@ -32,6 +32,28 @@ FUSE_PAIRS: dict[str, tuple[int, int]] = {
     "shoulders": (KP["left_shoulder"], KP["right_shoulder"]),
 }
 
+#: The pairs of points ``keypoints.fuse_rays`` can name (one camera).
+RAY_PAIRS: dict[str, tuple[int, int]] = {
+    name: (KP[f"left_{point}"], KP[f"right_{point}"])
+    for name, point in (
+        ("hips", "hip"),
+        ("knees", "knee"),
+        ("ankles", "ankle"),
+        ("heels", "heel"),
+        ("toes", "toe"),
+        ("shoulders", "shoulder"),
+        ("elbows", "elbow"),
+        ("wrists", "wrist"),
+    )
+}
+
+#: The limbs whose detected sides are matched as a whole (one camera): a leg with its hip, an
+#: arm with its shoulder, as the key-point cue assigns them.
+_LIMBS: tuple[tuple[str, ...], ...] = (
+    ("hips", "knees", "ankles", "heels", "toes"),
+    ("shoulders", "elbows", "wrists"),
+)
+
 
 def triangulate(cameras: Sequence[Camera], pixels: np.ndarray) -> np.ndarray | None:
     """The world point (3,) nearest the rays of ``cameras`` through ``pixels`` (N, 2) (least
@@ -122,4 +144,75 @@ def fuse_detections(
     return out
 
 
-__all__ = ["FUSE_PAIRS", "fuse_detections", "triangulate"]
+def _limb_matched(cam: Camera, det: np.ndarray, joints: np.ndarray, limb: Sequence[str]):
+    """The camera's detected pixels of a whole limb, ``(2, len(limb), 2)`` for the written left
+    and right limb: as labelled or exchanged, whichever lies nearer the written points'
+    projections over the points detected (NaN: not detected)."""
+    left = [RAY_PAIRS[n][0] for n in limb]
+    right = [RAY_PAIRS[n][1] for n in limb]
+    proj_l, proj_r = cam.project(joints[left]), cam.project(joints[right])
+    det_l, det_r = det[left, :2], det[right, :2]
+    same = np.nansum(np.linalg.norm(det_l - proj_l, axis=1)) + np.nansum(
+        np.linalg.norm(det_r - proj_r, axis=1)
+    )
+    swapped = np.nansum(np.linalg.norm(det_r - proj_l, axis=1)) + np.nansum(
+        np.linalg.norm(det_l - proj_r, axis=1)
+    )
+    return np.stack([det_r, det_l]) if swapped < same else np.stack([det_l, det_r])
+
+
+def fuse_along_rays(
+    joints: np.ndarray,
+    camera: Camera,
+    detection: np.ndarray | None,
+    pairs: Sequence[str],
+    *,
+    weight: float = 0.5,
+    max_gap_m: float = 0.3,
+    vertical: Sequence[str] = (),
+) -> np.ndarray:
+    """``joints`` (19, 3) with each point of ``pairs`` (names of :data:`RAY_PAIRS`) moved
+    ``weight`` of the way across the camera's line of sight towards the ray through its
+    detection: to the ray's point nearest it, so its distance from the camera, which one camera
+    does not see, stays the model's. Farther than ``max_gap_m`` from the ray the point stays.
+    The pairs named in ``vertical`` move along the vertical (z) only. With the hips, the sacrum
+    moves by the mean of the two hips' steps, along every axis whatever ``vertical`` says (as
+    in :func:`fuse_detections`). The detected sides are
+    matched to the written ones limb by limb (a leg with its hip, an arm with its shoulder), kept
+    or exchanged, whichever lies nearer their projections. ``detection``: None or the detected
+    pixels ``(19, 2)``, NaN where a point was not found or not confident enough. Returns a new
+    array; ``joints`` is not changed."""
+    out = np.array(joints, dtype=np.float64, copy=True)
+    if detection is None or not pairs or not np.isfinite(out).all():
+        return out
+    det = np.asarray(detection, dtype=np.float64)
+    if det.shape[0] != out.shape[0] or det.shape[-1] < 2:
+        raise ValueError(f"expected detected pixels (19, 2), got {det.shape}")
+    centre = np.asarray(camera.center, dtype=np.float64)
+    for limb in _LIMBS:
+        names = [n for n in limb if n in pairs]
+        if not names:
+            continue
+        matched = _limb_matched(camera, det, out, limb)
+        for name in names:
+            k = limb.index(name)
+            steps = np.zeros((2, 3))
+            for side, point in enumerate(RAY_PAIRS[name]):
+                px = matched[side, k]
+                if not np.isfinite(px).all():
+                    continue
+                d = camera.pixel_rays(px[None])[0]
+                along = float((out[point] - centre) @ d)
+                if along <= 0:
+                    continue
+                step = centre + along * d - out[point]
+                if np.linalg.norm(step) > max_gap_m:
+                    continue
+                steps[side] = weight * step
+            out[list(RAY_PAIRS[name])] += steps * [0.0, 0.0, 1.0] if name in vertical else steps
+            if name == "hips":
+                out[SACRUM] += steps.mean(axis=0)
+    return out
+
+
+__all__ = ["FUSE_PAIRS", "RAY_PAIRS", "fuse_along_rays", "fuse_detections", "triangulate"]
