@@ -158,6 +158,13 @@ def test_rays_move_points_across_the_line_of_sight(cameras, joints) -> None:
     np.testing.assert_allclose(up[KP["sacrum"]], out[KP["sacrum"]])
     others = [i for i in moved if i not in hips]
     np.testing.assert_allclose(up[others], out[others])
+    # the arms all the way: the written elbows and wrists project onto their detections
+    arms = sorted(i for n in ("elbows", "wrists") for i in RAY_PAIRS[n])
+    whole = fuse_along_rays(joints, cam, det, names, full=("elbows", "wrists"))
+    np.testing.assert_allclose(cam.project(whole[arms]), det[arms], atol=1e-6)
+    np.testing.assert_allclose(whole[arms] - joints[arms], 2 * (out[arms] - joints[arms]))
+    rest_moved = [i for i in moved if i not in arms]
+    np.testing.assert_array_equal(whole[rest_moved], out[rest_moved])
     assert np.array_equal(fuse_along_rays(joints, cam, det, ()), joints)
     assert np.array_equal(fuse_along_rays(joints, cam, None, names), joints)
 
@@ -188,6 +195,7 @@ def test_fuse_config() -> None:
     with pytest.raises(ValidationError):
         KeypointConfig(fuse_min_cameras=1)
     assert kc.fuse_rays == ("hips", "heels", "toes", "shoulders", "elbows", "wrists")
+    assert kc.fuse_rays_full == ("elbows", "wrists") and kc.fuse_ray_max_gap_m == 0.5
     assert set(kc.fuse_rays) <= set(RAY_PAIRS)
     with pytest.raises(ValidationError):
         KeypointConfig(fuse_rays=("neck",))

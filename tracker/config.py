@@ -1497,6 +1497,18 @@ class KeypointConfig(_Model):
             'reads. Empty: none (docs/tracker.md, "Session 49")',
         ),
     ] = ("hips", "heels", "toes", "shoulders", "elbows", "wrists")
+    fuse_rays_full: Annotated[
+        tuple[
+            Literal["hips", "knees", "ankles", "heels", "toes", "shoulders", "elbows", "wrists"],
+            ...,
+        ],
+        Field(
+            description="Of fuse_rays, the pairs moved all the way to their rays (weight 1): "
+            "through one camera the model's arms are not searched (arms.min_cameras), and the "
+            "detector's elbows and wrists lie far nearer the truth across the line of sight "
+            '(docs/tracker.md, "Session 49")',
+        ),
+    ] = ("elbows", "wrists")
     fuse_ray_max_gap_m: Annotated[
         float,
         Field(
@@ -1504,7 +1516,7 @@ class KeypointConfig(_Model):
             le=2,
             description="A ray farther than this from the written point is not used (one camera)",
         ),
-    ] = 0.3
+    ] = 0.5
     initial: Annotated[
         bool,
         Field(

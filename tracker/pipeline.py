@@ -1653,6 +1653,7 @@ class Tracker:
                 weight=kc.fuse_weight,
                 max_gap_m=kc.fuse_ray_max_gap_m,
                 vertical=kc.fuse_vertical,
+                full=kc.fuse_rays_full,
             )
         if not kc.fuse or len(self.cameras) < kc.fuse_min_cameras:
             return joints

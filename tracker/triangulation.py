@@ -168,14 +168,16 @@ def fuse_along_rays(
     pairs: Sequence[str],
     *,
     weight: float = 0.5,
-    max_gap_m: float = 0.3,
+    max_gap_m: float = 0.5,
     vertical: Sequence[str] = (),
+    full: Sequence[str] = (),
 ) -> np.ndarray:
     """``joints`` (19, 3) with each point of ``pairs`` (names of :data:`RAY_PAIRS`) moved
     ``weight`` of the way across the camera's line of sight towards the ray through its
     detection: to the ray's point nearest it, so its distance from the camera, which one camera
     does not see, stays the model's. Farther than ``max_gap_m`` from the ray the point stays.
-    The pairs named in ``vertical`` move along the vertical (z) only. With the hips, the sacrum
+    The pairs named in ``full`` move all the way to the ray (weight 1), those in ``vertical``
+    along the vertical (z) only. With the hips, the sacrum
     moves by the mean of the two hips' steps, along every axis whatever ``vertical`` says (as
     in :func:`fuse_detections`). The detected sides are
     matched to the written ones limb by limb (a leg with its hip, an arm with its shoulder), kept
@@ -208,7 +210,7 @@ def fuse_along_rays(
                 step = centre + along * d - out[point]
                 if np.linalg.norm(step) > max_gap_m:
                     continue
-                steps[side] = weight * step
+                steps[side] = (1.0 if name in full else weight) * step
             out[list(RAY_PAIRS[name])] += steps * [0.0, 0.0, 1.0] if name in vertical else steps
             if name == "hips":
                 out[SACRUM] += steps.mean(axis=0)
