@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import typing
+
 import numpy as np
 import pytest
 from pydantic import ValidationError
@@ -10,7 +12,7 @@ from pydantic import ValidationError
 from gaitwatch.conventions import KP
 from tracker.body import BodyModel
 from tracker.camera import Camera
-from tracker.config import KeypointConfig, TrackerConfig
+from tracker.config import KeypointConfig, RayPair, TrackerConfig
 from tracker.triangulation import (
     FUSE_PAIRS,
     RAY_PAIRS,
@@ -183,6 +185,8 @@ def test_rays_leave_points_they_cannot_trust(cameras, joints) -> None:
     assert 0.01 < np.linalg.norm(out[rw] - joints[rw]) < 0.05
     with pytest.raises(ValueError, match="19, 2"):
         fuse_along_rays(joints, cam, det[:5], ("wrists",))
+    with pytest.raises(ValueError, match="19, 2"):
+        fuse_along_rays(joints, cam, det[:, 0], ("wrists",))
 
 
 def test_fuse_config() -> None:
@@ -196,7 +200,7 @@ def test_fuse_config() -> None:
         KeypointConfig(fuse_min_cameras=1)
     assert kc.fuse_rays == ("hips", "heels", "toes", "shoulders", "elbows", "wrists")
     assert kc.fuse_rays_full == ("elbows", "wrists") and kc.fuse_ray_max_gap_m == 0.5
-    assert set(kc.fuse_rays) <= set(RAY_PAIRS)
+    assert set(typing.get_args(RayPair)) == set(RAY_PAIRS)  # every pair offered exists
     with pytest.raises(ValidationError):
         KeypointConfig(fuse_rays=("neck",))
     with pytest.raises(ValidationError):

@@ -1317,6 +1317,10 @@ def _image_size(v: tuple[int, int]) -> tuple[int, int]:
     return v
 
 
+#: The pairs of key points ``keypoints.fuse_rays`` can name (tracker.triangulation.RAY_PAIRS).
+RayPair = Literal["hips", "knees", "ankles", "heels", "toes", "shoulders", "elbows", "wrists"]
+
+
 class KeypointConfig(_Model):
     """The 2D key-point cue (:mod:`tracker.keypoints2d`): the model's leg key points projected
     into each camera and scored against key points a 2D pose detector found in that frame
@@ -1485,10 +1489,7 @@ class KeypointConfig(_Model):
         ),
     ] = 0.15
     fuse_rays: Annotated[
-        tuple[
-            Literal["hips", "knees", "ankles", "heels", "toes", "shoulders", "elbows", "wrists"],
-            ...,
-        ],
+        tuple[RayPair, ...],
         Field(
             description="With one camera: pairs of written key points moved fuse_weight of the "
             "way across the line of sight towards the rays through their detections (their "
@@ -1498,10 +1499,7 @@ class KeypointConfig(_Model):
         ),
     ] = ("hips", "heels", "toes", "shoulders", "elbows", "wrists")
     fuse_rays_full: Annotated[
-        tuple[
-            Literal["hips", "knees", "ankles", "heels", "toes", "shoulders", "elbows", "wrists"],
-            ...,
-        ],
+        tuple[RayPair, ...],
         Field(
             description="Of fuse_rays, the pairs moved all the way to their rays (weight 1): "
             "through one camera the model's arms are not searched (arms.min_cameras), and the "

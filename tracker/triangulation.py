@@ -14,6 +14,12 @@ does not give) with the triangulated hips; the tracker's own pose, particles and
 the model's. Sides: each camera's detected left and right point are matched to the written
 ones, kept or exchanged, whichever lies nearer their projections (the detector's labels are
 not trusted, as in the key-point cue).
+
+One camera cannot triangulate, but its detections still say where a point lies across its
+line of sight, where the model's points often err more (the arms above all, which one camera's
+tracker does not search). :func:`fuse_along_rays` moves the chosen written points towards the
+rays through their detections, keeping the model's distance from the camera
+(``keypoints.fuse_rays``; docs/tracker.md, "Session 49").
 """
 
 from __future__ import annotations
@@ -177,18 +183,17 @@ def fuse_along_rays(
     detection: to the ray's point nearest it, so its distance from the camera, which one camera
     does not see, stays the model's. Farther than ``max_gap_m`` from the ray the point stays.
     The pairs named in ``full`` move all the way to the ray (weight 1), those in ``vertical``
-    along the vertical (z) only. With the hips, the sacrum
-    moves by the mean of the two hips' steps, along every axis whatever ``vertical`` says (as
-    in :func:`fuse_detections`). The detected sides are
-    matched to the written ones limb by limb (a leg with its hip, an arm with its shoulder), kept
-    or exchanged, whichever lies nearer their projections. ``detection``: None or the detected
-    pixels ``(19, 2)``, NaN where a point was not found or not confident enough. Returns a new
-    array; ``joints`` is not changed."""
+    along the vertical (z) only. With the hips, the sacrum moves by the mean of the two hips'
+    steps, along every axis whatever ``vertical`` says (as in :func:`fuse_detections`). The
+    detected sides are matched to the written ones limb by limb (a leg with its hip, an arm with
+    its shoulder), kept or exchanged, whichever lies nearer their projections. ``detection``:
+    None or the detected pixels ``(19, 2)`` (further columns ignored), NaN where a point was not
+    found or not confident enough. Returns a new array; ``joints`` is not changed."""
     out = np.array(joints, dtype=np.float64, copy=True)
     if detection is None or not pairs or not np.isfinite(out).all():
         return out
     det = np.asarray(detection, dtype=np.float64)
-    if det.shape[0] != out.shape[0] or det.shape[-1] < 2:
+    if det.ndim != 2 or det.shape[0] != out.shape[0] or det.shape[1] < 2:
         raise ValueError(f"expected detected pixels (19, 2), got {det.shape}")
     centre = np.asarray(camera.center, dtype=np.float64)
     for limb in _LIMBS:
