@@ -302,7 +302,8 @@ class KeypointCue:
     def points(self) -> list[np.ndarray | None] | None:
         """This frame's detected points per camera: None or ``(19, 2)`` pixels, NaN where a
         point was not found or less confident than ``min_confidence``; None without any
-        (for :func:`tracker.triangulation.fuse_detections`)."""
+        (for :func:`tracker.triangulation.fuse_detections` and
+        :func:`~tracker.triangulation.fuse_along_rays`)."""
         return self._uv
 
     @property

@@ -83,19 +83,31 @@ def triangulate(cameras: Sequence[Camera], pixels: np.ndarray) -> np.ndarray | N
     return x
 
 
-def _matched(cam: Camera, det: np.ndarray, joints: np.ndarray, pair: tuple[int, int]):
-    """The camera's detected pixels (2, 2) of ``pair`` in the written points' order: as
-    labelled or exchanged, whichever lies nearer the written points' projections (NaN rows:
-    not detected)."""
-    li, ri = pair
-    proj = cam.project(joints[[li, ri]])
-    same, swapped = det[[li, ri], :2], det[[ri, li], :2]
-    d_same = np.linalg.norm(same - proj, axis=1)
-    d_swap = np.linalg.norm(swapped - proj, axis=1)
-    both = np.isfinite(d_same) & np.isfinite(d_swap)
-    if not both.any():
-        return same
-    return swapped if d_swap[both].sum() < d_same[both].sum() else same
+def _sides(
+    cam: Camera,
+    det: np.ndarray,
+    joints: np.ndarray,
+    left: Sequence[int],
+    right: Sequence[int],
+    *,
+    common_only: bool,
+) -> np.ndarray:
+    """The camera's detected pixels ``(2, n, 2)`` of the points ``left`` and ``right`` (n each)
+    for the written left and right side: as labelled or exchanged, whichever lies nearer the
+    written points' projections (NaN: not detected). The distances summed are those of the
+    points detected; with ``common_only`` only those finite under both labellings (none: as
+    labelled)."""
+    proj_l, proj_r = cam.project(joints[list(left)]), cam.project(joints[list(right)])
+    det_l, det_r = det[list(left), :2], det[list(right), :2]
+    d_same = np.linalg.norm(np.concatenate([det_l - proj_l, det_r - proj_r]), axis=1)
+    d_swap = np.linalg.norm(np.concatenate([det_r - proj_l, det_l - proj_r]), axis=1)
+    if common_only:
+        use = np.isfinite(d_same) & np.isfinite(d_swap)
+        if not use.any():
+            return np.stack([det_l, det_r])
+        d_same, d_swap = d_same[use], d_swap[use]
+    swap = np.nansum(d_swap) < np.nansum(d_same)
+    return np.stack([det_r, det_l]) if swap else np.stack([det_l, det_r])
 
 
 def fuse_detections(
@@ -131,7 +143,7 @@ def fuse_detections(
     for name in pairs:
         pair = FUSE_PAIRS[name]
         steps = np.zeros((2, 3))
-        matched = [_matched(c, d, out, pair) for c, d in seen]
+        matched = [_sides(c, d, out, pair[:1], pair[1:], common_only=True)[:, 0] for c, d in seen]
         for k, point in enumerate(pair):
             use = [
                 (c, m[k])
@@ -148,23 +160,6 @@ def fuse_detections(
         if name == "hips":  # the sacrum follows the hips' mean step, along every axis
             out[SACRUM] += steps.mean(axis=0)
     return out
-
-
-def _limb_matched(cam: Camera, det: np.ndarray, joints: np.ndarray, limb: Sequence[str]):
-    """The camera's detected pixels of a whole limb, ``(2, len(limb), 2)`` for the written left
-    and right limb: as labelled or exchanged, whichever lies nearer the written points'
-    projections over the points detected (NaN: not detected)."""
-    left = [RAY_PAIRS[n][0] for n in limb]
-    right = [RAY_PAIRS[n][1] for n in limb]
-    proj_l, proj_r = cam.project(joints[left]), cam.project(joints[right])
-    det_l, det_r = det[left, :2], det[right, :2]
-    same = np.nansum(np.linalg.norm(det_l - proj_l, axis=1)) + np.nansum(
-        np.linalg.norm(det_r - proj_r, axis=1)
-    )
-    swapped = np.nansum(np.linalg.norm(det_r - proj_l, axis=1)) + np.nansum(
-        np.linalg.norm(det_l - proj_r, axis=1)
-    )
-    return np.stack([det_r, det_l]) if swapped < same else np.stack([det_l, det_r])
 
 
 def fuse_along_rays(
@@ -200,15 +195,20 @@ def fuse_along_rays(
         names = [n for n in limb if n in pairs]
         if not names:
             continue
-        matched = _limb_matched(camera, det, out, limb)
+        left = [RAY_PAIRS[n][0] for n in limb]
+        right = [RAY_PAIRS[n][1] for n in limb]
+        matched = _sides(camera, det, out, left, right, common_only=False)
+        seen = np.isfinite(matched).all(axis=2)
+        rays = np.full(matched.shape[:2] + (3,), np.nan)
+        if seen.any():  # every detected point's ray at once
+            rays[seen] = camera.pixel_rays(matched[seen])
         for name in names:
             k = limb.index(name)
             steps = np.zeros((2, 3))
             for side, point in enumerate(RAY_PAIRS[name]):
-                px = matched[side, k]
-                if not np.isfinite(px).all():
+                if not seen[side, k]:
                     continue
-                d = camera.pixel_rays(px[None])[0]
+                d = rays[side, k]
                 along = float((out[point] - centre) @ d)
                 if along <= 0:
                     continue
