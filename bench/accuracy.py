@@ -720,6 +720,7 @@ def track(
 
     out_f, out_t, joints, times_ms, ev_tr, ev_init, statuses = [], [], [], [], [], [], []
     restarts: list[bool] = []
+    legs_seen: list[bool] = []
     queue, final = ResultQueue(), []  # each frame's final result, as `gaitwatch track` has it
     seg_iou, est_iou, seen, weights, fit_w, est_w = [], [], [], [], [], []
     fits = fits or {}
@@ -765,6 +766,7 @@ def track(
             out_t.append(r.frame_index / fps)
             joints.append(r.joints)
             restarts.append(r.status in RESTART_STATUSES)
+            legs_seen.append(r.legs_seen)
     if joints:
         # the key points as `gaitwatch track` writes them (tracker.output: the settings'
         # [leg_labels] and [smoothing] sections, both on by default)
@@ -777,6 +779,7 @@ def track(
             frames=np.array(out_f),
             eye=single_camera_eye(cams),
             keypoint_cue=cfg.keypoints.enabled and (keypoints is not None or tr.detects_keypoints),
+            legs_seen=np.array(legs_seen),
         )
         est = Trajectory(positions=smoothed, times=np.array(out_t), frames=out_f, fps=fps)
     else:

@@ -10,8 +10,11 @@ from gaitwatch.conventions import KEYPOINTS
 from tracker.config import SmoothingConfig
 from tracker.smoothing import (
     FEET,
+    KNEES,
+    UPPER,
     KeypointSmoother,
     local_fit,
+    sideways_offset,
     single_camera_eye,
     smooth_keypoints,
     window_frames,
@@ -240,7 +243,7 @@ def test_depth_stage_removes_jitter_along_the_line_of_sight_only() -> None:
     of sight onto the distance fitted over the longer window: the depth jitter shrinks, the
     body keeps its shape and nothing moves across the line of sight."""
     times, clean, jittered, _ = _walk_with_depth_jitter()
-    cfg = SmoothingConfig()
+    cfg = SmoothingConfig(balance=0.0)  # the balance step moves the upper body alone: below
     assert cfg.depth_window_s == 0.75 and cfg.depth_order == 1
     plain = smooth_keypoints(times, jittered, cfg, FPS)  # no camera centre: no depth stage
     deep = smooth_keypoints(times, jittered, cfg, FPS, eye=EYE)
@@ -292,3 +295,114 @@ def test_single_camera_eye_and_bad_depth_parameters() -> None:
         KeypointSmoother(9, 2, eye=[np.nan, 0, 0], depth_window=15)
     with pytest.raises(ValueError):
         SmoothingConfig(depth_window_s=-1.0)
+
+
+# -- balance through one camera -----------------------------------------------------------------
+def _standing_body(sideways: float = 0.0) -> np.ndarray:
+    """A 19-point body facing +x (left is +y), feet on the floor; everything above the feet
+    (hips, trunk, arms; the knees half as far) shifted ``sideways`` metres to its left."""
+    pts = {
+        "head": (0.0, 0.0, 1.65),
+        "neck": (0.0, 0.0, 1.45),
+        "sacrum": (-0.08, 0.0, 1.0),
+    }
+    for side, y in (("left", 1.0), ("right", -1.0)):
+        pts[f"{side}_shoulder"] = (0.0, 0.18 * y, 1.42)
+        pts[f"{side}_elbow"] = (0.0, 0.2 * y, 1.15)
+        pts[f"{side}_wrist"] = (0.02, 0.2 * y, 0.9)
+        pts[f"{side}_hip"] = (0.0, 0.09 * y, 0.92)
+        pts[f"{side}_knee"] = (0.02, 0.09 * y, 0.5)
+        pts[f"{side}_ankle"] = (0.0, 0.09 * y, 0.08)
+        pts[f"{side}_heel"] = (-0.05, 0.09 * y, 0.02)
+        pts[f"{side}_toe"] = (0.15, 0.09 * y, 0.02)
+    body = np.array([pts[n] for n in KEYPOINTS])
+    body[UPPER, 1] += sideways
+    body[KNEES, 1] += 0.5 * sideways
+    return body
+
+
+def test_sideways_offset() -> None:
+    np.testing.assert_allclose(sideways_offset(_standing_body()), [0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(sideways_offset(_standing_body(0.07)), [0.0, 0.07], atol=1e-12)
+    # only the component across the pelvis: the hips ahead of the feet do not count
+    ahead = _standing_body(0.07)
+    ahead[UPPER, 0] += 0.2
+    np.testing.assert_allclose(sideways_offset(ahead), [0.0, 0.07], atol=1e-12)
+    assert sideways_offset(_standing_body()[:17]) is None  # not the 19 key points
+    stacked = _standing_body()
+    stacked[[9, 10], :2] = 0.0  # hips one above the other: no across direction
+    assert sideways_offset(stacked) is None
+
+
+def test_balance_takes_back_the_sideways_offset_along_the_line_of_sight() -> None:
+    """One camera: the hips and the body above them move along the line of sight until the
+    pelvis's sideways offset from the feet has no component there; the knees move half as
+    far, the feet not at all, and nothing moves across the line of sight. A body whose
+    pelvis stands over its feet is left alone; two cameras (no eye) or balance 0: no step."""
+    T = 30
+    times = np.arange(T) / FPS
+    eye = np.array([-3.0, -4.0, 2.5])  # the line of sight 37 deg from the walk's direction
+    path = np.stack([1.2 * times, 0 * times, 0 * times], axis=1)[:, None]
+    leaning = _standing_body(0.08)[None] + path
+    off = SmoothingConfig(balance=0.0)
+    on = SmoothingConfig()
+    assert on.balance == 1.0
+    before = smooth_keypoints(times, leaning, off, FPS, eye=eye)
+    after = smooth_keypoints(times, leaning, on, FPS, eye=eye)
+    move = after - before
+    sight = 0.5 * (before[:, 9, :2] + before[:, 10, :2]) - eye[:2]
+    sight /= np.linalg.norm(sight, axis=1, keepdims=True)
+    expected = -(0.08 * sight[:, 1])[:, None] * sight  # -(offset . sight) sight
+    for k in UPPER:
+        np.testing.assert_allclose(move[:, k, :2], expected, atol=1e-9)
+    for k in KNEES:
+        np.testing.assert_allclose(move[:, k, :2], 0.5 * expected, atol=1e-9)
+    assert np.abs(move[:, FEET]).max() < 1e-12
+    assert np.abs(move[..., 2]).max() < 1e-12
+    assert np.abs(expected).max() > 0.03
+    for k in range(T):  # the nearest the hips get to over the feet along the line of sight
+        o = sideways_offset(before[k]) + move[k, 9, :2]
+        assert abs(float(o @ sight[k])) < 1e-9
+    # balanced already: unchanged
+    upright = _standing_body()[None] + path
+    np.testing.assert_allclose(
+        smooth_keypoints(times, upright, on, FPS, eye=eye),
+        smooth_keypoints(times, upright, off, FPS, eye=eye),
+        atol=1e-12,
+    )
+    # two cameras (no eye), or the depth stage off: no balance step either
+    assert np.array_equal(
+        smooth_keypoints(times, leaning, on, FPS), smooth_keypoints(times, leaning, off, FPS)
+    )
+    no_depth = on.model_copy(update={"depth_window_s": 0.0})
+    assert np.array_equal(
+        smooth_keypoints(times, leaning, no_depth, FPS, eye=eye),
+        smooth_keypoints(times, leaning, off.model_copy(update={"depth_window_s": 0.0}), FPS),
+    )
+    half = smooth_keypoints(times, leaning, on.model_copy(update={"balance": 0.5}), FPS, eye=eye)
+    np.testing.assert_allclose(half - before, 0.5 * move, atol=1e-9)
+    # frames whose legs may be hidden (furniture, the image's edge) are left out of the fit:
+    # none seen, no step; the second half unseen, the first half's offset still carries
+    hidden = np.zeros(T, dtype=bool)
+    got = smooth_keypoints(times, leaning, on, FPS, eye=eye, legs_seen=hidden)
+    assert np.array_equal(got, before)
+    hidden[: T // 2] = True
+    shifted = leaning.copy()
+    shifted[T // 2 :, UPPER, 1] -= 0.3  # a guess far off: it would move the pelvis the other way
+    ref = smooth_keypoints(times, shifted, off, FPS, eye=eye)
+    got = smooth_keypoints(times, shifted, on, FPS, eye=eye, legs_seen=hidden)
+    step = (got - ref)[:, 9, :2]
+    sight = 0.5 * (ref[:, 9, :2] + ref[:, 10, :2]) - eye[:2]
+    towards = np.einsum("ij,ij->i", step, sight) / np.linalg.norm(sight, axis=1)
+    lag = 7  # the depth window's half: 0.75 s at 20 fps
+    assert (towards[: T // 2 + lag] < -0.02).all()  # the seen offset (+y) moves them nearer
+    np.testing.assert_allclose(got[T // 2 + lag :], ref[T // 2 + lag :], atol=1e-12)  # none seen
+    with pytest.raises(ValueError, match="legs_seen"):
+        smooth_keypoints(times, leaning, on, FPS, eye=eye, legs_seen=hidden[:-1])
+
+
+def test_bad_balance() -> None:
+    with pytest.raises(ValueError, match="balance"):
+        KeypointSmoother(9, 2, eye=EYE, depth_window=15, balance=-0.1)
+    with pytest.raises(ValueError):
+        SmoothingConfig(balance=3.0)

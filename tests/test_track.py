@@ -764,9 +764,10 @@ def test_track_cli_one_camera_writes_the_depth_stage(clip: dict, tmp_path: Path,
     """Through one camera `gaitwatch track` fits the body's distance from it over the longer
     window (tracker.smoothing, depth stage): its stream writes what the whole-footage form
     makes of the unsmoothed key points, and without the stage each frame differs by one
-    horizontal move along that camera's line of sight."""
+    horizontal move along that camera's line of sight. Its balance step moves only the hips,
+    the body above them and the knees, along the line of sight too."""
     from tracker.config import SmoothingConfig
-    from tracker.smoothing import smooth_keypoints
+    from tracker.smoothing import FEET, KNEES, UPPER, smooth_keypoints
 
     one = {
         "folders": [clip["folders"][0]],
@@ -777,27 +778,37 @@ def test_track_cli_one_camera_writes_the_depth_stage(clip: dict, tmp_path: Path,
     common += ["--particles", "729"]
     off_cfg = tmp_path / "off.toml"
     off_cfg.write_text("[smoothing]\ndepth_window_s = 0.0\n")
+    rigid_cfg = tmp_path / "rigid.toml"
+    rigid_cfg.write_text("[smoothing]\nbalance = 0.0\n")
     logs = {}
     for name, extra in (
         ("on", []),
+        ("rigid", ["--config", str(rigid_cfg)]),
         ("off", ["--config", str(off_cfg)]),
         ("raw", ["--no-smoothing"]),
     ):
         out = tmp_path / f"{name}.mcap"
         assert main(_args(clip, out, *common, *extra, **one)) == 0, capsys.readouterr().err
         logs[name] = read_poselog(out)
-    on, off, raw = logs["on"], logs["off"], logs["raw"]
+    on, rigid, off, raw = logs["on"], logs["rigid"], logs["off"], logs["raw"]
     assert np.array_equal(on.dofs, off.dofs) and np.array_equal(on.dofs, raw.dofs)
     eye = np.asarray(clip["cams"][0].center)
     again = smooth_keypoints(
         raw.trajectory.times, raw.trajectory.positions, SmoothingConfig(), FPS, eye=eye
     )
     np.testing.assert_allclose(on.trajectory.positions, again, atol=1e-9)
-    move = on.trajectory.positions - off.trajectory.positions
+    move = rigid.trajectory.positions - off.trajectory.positions
     assert np.abs(move).max() > 1e-4  # the stage moved the frames
     assert np.allclose(move, move[:, :1], atol=1e-9) and np.allclose(move[..., 2], 0.0)
     sight = off.trajectory.positions.mean(axis=1)[:, :2] - eye[:2]
     assert np.allclose(move[:, 0, 0] * sight[:, 1] - move[:, 0, 1] * sight[:, 0], 0.0, atol=1e-9)
+    step = on.trajectory.positions - rigid.trajectory.positions  # the balance step
+    assert np.abs(step[:, UPPER]).max() > 1e-4
+    assert np.abs(step[:, FEET]).max() < 1e-12 and np.abs(step[..., 2]).max() < 1e-12
+    np.testing.assert_allclose(step[:, KNEES], 0.5 * step[:, [9, 10]], atol=1e-12)
+    hips = 0.5 * (rigid.trajectory.positions[:, 9, :2] + rigid.trajectory.positions[:, 10, :2])
+    sight = hips - eye[:2]
+    assert np.allclose(step[:, 9, 0] * sight[:, 1] - step[:, 9, 1] * sight[:, 0], 0.0, atol=1e-9)
 
 
 @pytest.mark.parametrize("name", ["apf", "condensation"])

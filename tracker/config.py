@@ -1666,6 +1666,19 @@ class SmoothingConfig(_Model):
     depth_order: Annotated[
         int, Field(ge=0, le=4, description="Polynomial order of the distance's fit")
     ] = 1
+    balance: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=2,
+            description="With one camera (and the depth stage on): the pelvis's sideways offset "
+            "from the feet's centre, fitted over the depth window, is taken back along the "
+            "line of sight by this share of its component there: the hips and the body above "
+            "them move by it, the knees by half, the feet stay. A standing or walking body "
+            "keeps its pelvis over its feet, and one view cannot see the offset along its line "
+            "of sight. 0: off",
+        ),
+    ] = 1.0
 
 
 class EnsembleConfig(_Model):

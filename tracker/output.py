@@ -22,6 +22,7 @@ def written_keypoints(
     eye: np.ndarray | None = None,
     *,
     keypoint_cue: bool | None = None,
+    legs_seen: np.ndarray | None = None,
 ) -> np.ndarray:
     """``joints`` (T, 19, 3) of the frames with a pose at ``times`` (T,) -> the written (T, 19,
     3), with ``config.leg_labels`` and ``config.smoothing``; ``restarts``, ``frames`` and
@@ -30,7 +31,9 @@ def written_keypoints(
     :func:`tracker.smoothing.smooth_keypoints`. ``keypoint_cue``: whether the 2D key-point cue
     had detections to score (the tracker's detector ran, or key points were given), which
     decides one camera's leg labels (:func:`tracker.leglabels.chooses_labels`); None: as
-    ``config.keypoints`` says (on, with a detector)."""
+    ``config.keypoints`` says (on, with a detector). ``legs_seen`` (T,): the frames'
+    :attr:`tracker.pipeline.FrameResult.legs_seen` (None: all True), for the smoothing's
+    balance step."""
     if keypoint_cue is None:
         keypoint_cue = config.keypoints.enabled and config.keypoints.detector != "none"
     labelled, _ = relabel_legs(
@@ -43,4 +46,6 @@ def written_keypoints(
         single_camera=eye is not None,
         keypoint_cue=keypoint_cue,
     )
-    return smooth_keypoints(times, labelled, config.smoothing, fps, restarts, frames, eye)
+    return smooth_keypoints(
+        times, labelled, config.smoothing, fps, restarts, frames, eye, legs_seen=legs_seen
+    )

@@ -125,6 +125,10 @@ class FrameResult:
     leg_length : float
         Relative leg length of the body model ``pose`` refers to (``BodyModel.leg_length``;
         ``joints`` is that body's forward kinematics of ``pose``).
+    legs_seen : bool
+        False when furniture (the occluded pixels, given or learned) or the image's lower edge
+        may cut the legs off in every camera that sees the person (:func:`_legs_cut`): the
+        feet are then the model's guess (the output stage's balance step skips the frame).
     """
 
     frame_index: int
@@ -138,6 +142,7 @@ class FrameResult:
     evaluations: int = 0
     revisions: list[FrameResult] = field(default_factory=list)
     leg_length: float = 1.0
+    legs_seen: bool = True
 
     @property
     def has_pose(self) -> bool:
@@ -511,6 +516,7 @@ class Tracker:
         # (time, x, y of the estimate, x, y of the silhouettes' floor point) of recent frames
         self._path: list[tuple[float, float, float, float, float]] = []
         self._floor_now = np.full(2, np.nan)
+        self._legs_seen_now = True
         self._time_now = np.nan
         #: (time, x, y) of the silhouettes' floor point over the last seconds: a measurement,
         #: kept across re-initialisations of the estimate, cleared when nobody is in view.
@@ -750,6 +756,11 @@ class Tracker:
             return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW)
         segs = [self._choose_blobs(i, s, notes) for i, s in enumerate(segs)]
         masks = [s.mask for s in segs]
+        self._legs_seen_now = not all(
+            _legs_cut(silhouette_box(seg.blobs), occ, cam)
+            for cam, seg, occ in zip(self.cameras, segs, self._occ_maps, strict=True)
+            if not seg.empty
+        )
         if sum(int(m.sum()) for m in masks) < self.config.min_silhouette_px:
             return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW + " (silhouette too small)")
         if self.colour is not None:  # colour cue: this frame's colours
@@ -858,6 +869,7 @@ class Tracker:
             notes=notes,
             evaluations=self._lik.count,
             leg_length=float(self.body.leg_length),
+            legs_seen=self._legs_seen_now,
         )
 
     # -- backward pass ---------------------------------------------------------------------
@@ -974,6 +986,7 @@ class Tracker:
                     status="tracked",
                     notes=list(fwd.notes),
                     evaluations=fwd.evaluations + b._lik.count,
+                    legs_seen=fwd.legs_seen,
                 )
             )
             oldest = fwd

@@ -26,6 +26,15 @@ points' centroid from the camera, along the horizontal line of sight, is fitted 
 window (``depth_window``, ``depth_order``) and each frame's key points move together along that
 line onto the fit (after their own fit): the limbs keep their motion relative to the body.
 
+Balance through one camera (``balance``, with the depth stage): one view cannot see how far
+the pelvis stands to the side of the feet along its line of sight either, and the filter's
+estimate errs there (one oblique camera: the hips' centre 1-85 mm further to the side of the
+feet's centre than the truth's, per recording). A standing or walking body keeps its pelvis
+over its feet. The pelvis's sideways offset from the feet's centre (across the
+pelvis, horizontal) is fitted over the depth window, and the part of it that lies along the
+line of sight is taken back by the share ``balance``: the hips and everything above them move
+along the line of sight, the knees half as far (their angle stays), the feet not at all.
+
 Only the key points are smoothed; the pose vector and weight stay the tracker's own.
 """
 
@@ -43,6 +52,14 @@ from tracker.config import SmoothingConfig
 #: The key points fitted with ``feet_order``: both ankles, heels and toes.
 FEET = [side_index(s, p) for s in ("left", "right") for p in ("ankle", "heel", "toe")]
 
+#: The key points the balance step moves along the line of sight with the pelvis (the hips and
+#: every point above them); the knees move half as far, the feet (:data:`FEET`) stay.
+UPPER = [KEYPOINTS.index(n) for n in ("head", "neck", "sacrum")] + [
+    side_index(s, p) for s in ("left", "right") for p in ("shoulder", "elbow", "wrist", "hip")
+]
+KNEES = [side_index(s, "knee") for s in ("left", "right")]
+_HIPS = (side_index("left", "hip"), side_index("right", "hip"))
+
 #: Statuses that start a new segment (the pose jumps).
 RESTART_STATUSES = frozenset({"initialised", "reinitialised"})
 
@@ -59,6 +76,24 @@ class SmoothedFrame:
     raw: np.ndarray | None = field(default=None, repr=False)
     #: The raw key points' centroid's horizontal distance from the depth stage's eye.
     distance: float = field(default=float("nan"), repr=False)
+    #: The raw pelvis's sideways offset (2,) from the feet's centre, horizontal (balance step).
+    sideways: np.ndarray | None = field(default=None, repr=False)
+
+
+def sideways_offset(joints: np.ndarray) -> np.ndarray | None:
+    """The horizontal offset (2,) of the hips' centre from the feet's centre (the mean of both
+    ankles, heels and toes), its component across the pelvis (along the line from the right
+    hip to the left); None for other than 19 key points, or hips one above the other."""
+    if joints.shape[0] != len(KEYPOINTS):
+        return None
+    across = joints[_HIPS[0], :2] - joints[_HIPS[1], :2]
+    n = float(np.linalg.norm(across))
+    if not n > 1e-6:
+        return None
+    across /= n
+    offset = 0.5 * (joints[_HIPS[0], :2] + joints[_HIPS[1], :2]) - joints[FEET, :2].mean(axis=0)
+    out = float(offset @ across) * across
+    return out if np.isfinite(out).all() else None
 
 
 def window_frames(window_s: float, fps: float) -> int:
@@ -112,6 +147,10 @@ class KeypointSmoother:
         The one camera's centre (world, metres): the frames' distance from it along the
         horizontal line of sight is fitted over ``depth_window`` frames (odd) with
         ``depth_order`` (see the module docstring). None, or a window of 1: no depth stage.
+    balance : float
+        With the depth stage: the share of the pelvis's sideways offset from the feet (fitted
+        over the depth window), its component along the line of sight, taken back (module
+        docstring; 19-point frames). 0: off.
     """
 
     def __init__(
@@ -124,6 +163,7 @@ class KeypointSmoother:
         eye: np.ndarray | None = None,
         depth_window: int = 1,
         depth_order: int = 1,
+        balance: float = 0.0,
     ) -> None:
         for name, value in (("window", window), ("depth_window", depth_window)):
             if value < 1 or value % 2 == 0:
@@ -144,6 +184,9 @@ class KeypointSmoother:
                 raise ValueError(f"eye must be a finite point, not {eye}")
         self.depth_half = int(depth_window) // 2 if self.eye is not None else 0
         self.depth_order = int(depth_order)
+        if not 0 <= balance <= 2:
+            raise ValueError(f"balance must be 0 to 2, not {balance}")
+        self.balance = float(balance) if self.depth_half > 0 else 0.0
         #: Frames a frame waits for (the longer of the two half windows).
         self.lag = max(self.half, self.depth_half)
         #: Frames not yet returned (oldest first); the segment's earlier frames kept for fits.
@@ -168,21 +211,32 @@ class KeypointSmoother:
             eye=eye,
             depth_window=depth,
             depth_order=config.depth_order,
+            balance=config.balance,
         )
 
     # -- stream -----------------------------------------------------------------------------
     def push(
-        self, time_s: float, joints: np.ndarray | None, item: Any = None, *, restart: bool = False
+        self,
+        time_s: float,
+        joints: np.ndarray | None,
+        item: Any = None,
+        *,
+        restart: bool = False,
+        legs_seen: bool = True,
     ) -> list[SmoothedFrame]:
         """Add one frame; returns the frames that are now final (oldest first).
 
         ``joints`` (K, 3) or None for a frame without a pose; ``restart`` marks a frame that
-        starts a new track (a segment boundary before it).
+        starts a new track (a segment boundary before it); ``legs_seen`` False leaves the
+        frame's feet, then the model's guess, out of the balance step's fit
+        (:attr:`tracker.pipeline.FrameResult.legs_seen`).
         """
         j = None if joints is None else np.array(joints, dtype=np.float64)
         frame = SmoothedFrame(float(time_s), j, item, bool(restart), raw=j)
         if j is not None and self.eye is not None:
             frame.distance = float(np.hypot(*(j[:, :2].mean(axis=0) - self.eye[:2])))
+            if self.balance > 0 and legs_seen:
+                frame.sideways = sideways_offset(j)
         out: list[SmoothedFrame] = []
         if self._pending and self._breaks(self._pending[-1], frame):
             out += self._drain()
@@ -238,6 +292,8 @@ class KeypointSmoother:
                 ]
                 if len(seg) > 1:
                     frame.joints = self._depth_fit(seg, frame)
+                    if self.balance > 0:
+                        frame.joints = self._balance_fit(seg, frame)
         self._pending.popleft()
         if frame.joints is None:
             self._history.clear()
@@ -259,6 +315,27 @@ class KeypointSmoother:
             return frame.joints
         out = frame.joints.copy()
         out[:, :2] += (target - now) * offset / now
+        return out
+
+    def _balance_fit(self, seg: list[SmoothedFrame], frame: SmoothedFrame) -> np.ndarray:
+        """``frame``'s hips and the points above them moved along the horizontal line of sight
+        from :attr:`eye` by ``-balance`` times the component along it of the pelvis's
+        sideways offset fitted over ``seg`` (the knees by half of it)."""
+        assert self.eye is not None and frame.joints is not None
+        have = [f for f in seg if f.sideways is not None]
+        if not have or frame.joints.shape[0] != len(KEYPOINTS):
+            return frame.joints
+        t = np.array([f.time_s for f in have])
+        offset = self._fit(t, np.stack([f.sideways for f in have]), frame.time_s, self.depth_order)
+        sight = 0.5 * (frame.joints[_HIPS[0], :2] + frame.joints[_HIPS[1], :2]) - self.eye[:2]
+        n = float(np.linalg.norm(sight))
+        if not (n > 1e-6 and np.isfinite(offset).all()):
+            return frame.joints
+        sight /= n
+        step = -self.balance * float(offset @ sight) * sight
+        out = frame.joints.copy()
+        out[UPPER, :2] += step
+        out[KNEES, :2] += 0.5 * step
         return out
 
     def _fit(self, t: np.ndarray, v: np.ndarray, at: float, order: int) -> np.ndarray:
@@ -308,14 +385,20 @@ def smooth_keypoints(
     restarts: np.ndarray | None = None,
     frames: np.ndarray | None = None,
     eye: np.ndarray | None = None,
+    legs_seen: np.ndarray | None = None,
 ) -> np.ndarray:
     """The whole-footage form: ``joints`` (T, K, 3) of frames with a pose at ``times`` (T,),
     ``restarts`` (T,) True where a track starts; ``frames`` (T,) their frame numbers, a frame
     that does not follow the previous one (a frame without a pose between them) also starts a
-    segment; ``eye`` as in :class:`KeypointSmoother`. Returns the smoothed (T, K, 3)."""
+    segment; ``eye`` as in :class:`KeypointSmoother`; ``legs_seen`` (T,) as in
+    :meth:`KeypointSmoother.push` (None: all True). Returns the smoothed (T, K, 3)."""
     sm = KeypointSmoother.from_config(config, fps, eye)
+    seen = np.ones(len(times), dtype=bool) if legs_seen is None else np.asarray(legs_seen, bool)
+    if seen.shape != (len(times),):
+        raise ValueError(f"legs_seen has shape {seen.shape}, expected ({len(times)},)")
+    starts = segment_starts(len(times), restarts, frames)
     out: list[np.ndarray] = []
-    for t, j, r in zip(times, joints, segment_starts(len(times), restarts, frames), strict=True):
-        out += [f.joints for f in sm.push(float(t), j, restart=bool(r))]
+    for t, j, r, ls in zip(times, joints, starts, seen, strict=True):
+        out += [f.joints for f in sm.push(float(t), j, restart=bool(r), legs_seen=bool(ls))]
     out += [f.joints for f in sm.flush()]
     return np.stack(out) if out else np.zeros_like(np.asarray(joints, dtype=np.float64))

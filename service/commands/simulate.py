@@ -180,6 +180,7 @@ def tracker_callable(seed: int = 0):
         times = [r.frame_index / clip.fps for r in results]
         joints = [r.joints for r in results]
         restarts = [r.status in RESTART_STATUSES for r in results]
+        legs_seen = [r.legs_seen for r in results]
         if not frames:
             return Trajectory(positions=np.zeros((0, 19, 3)), times=np.zeros(0), frames=[])
         # as `gaitwatch track` writes them
@@ -192,6 +193,7 @@ def tracker_callable(seed: int = 0):
             frames=np.array(frames),
             eye=single_camera_eye(clip.cameras),
             keypoint_cue=tracker.detects_keypoints,
+            legs_seen=np.array(legs_seen),
         )
         return Trajectory(positions=smoothed, times=np.array(times), frames=frames)
 

@@ -370,7 +370,8 @@ def run(args: argparse.Namespace) -> int:
 
         def smooth(labelled: list) -> None:
             for f in labelled:
-                write(smoother.push(f.time_s, f.joints, f.item, restart=f.restart))
+                legs = f.item.legs_seen  # the relabeller's item is the FrameResult
+                write(smoother.push(f.time_s, f.joints, f.item, restart=f.restart, legs_seen=legs))
 
         def relabel(final: list) -> None:
             for res in final:
