@@ -497,3 +497,37 @@ def test_several_tracks_share_one_detection_per_frame(scene, side_walk, monkeypa
         tr.process(k, k / 25.0, [frame])
     assert len(calls) == 2
     assert all(t.keypoint_cue.has_frame for t in tr.tracks)
+
+
+def test_feet_below_the_silhouette() -> None:
+    """The estimate's feet count as unseen when, at the median of the six foot points, they
+    project more than a tenth of the body's projected height below the silhouette's lowest
+    pixel in their columns (legs hidden by furniture not yet learned), or outside it."""
+    from gaitwatch.conventions import KEYPOINTS
+    from tracker.pipeline import FOOT_POINTS, _feet_below_silhouette
+    from tracker.synthetic import side_cameras
+
+    cam = side_cameras(1, image_size=(160, 120), centre=(1.0, 0.0))[0]
+    joints = np.zeros((19, 3))
+    joints[:, 0] = 1.0
+    joints[:, 2] = np.linspace(1.65, 0.6, 19)  # a column of points from the head down
+    joints[list(FOOT_POINTS), 2] = [0.08, 0.08, 0.02, 0.02, 0.02, 0.02]
+    joints[list(FOOT_POINTS), 0] += [0.0, 0.0, -0.05, -0.05, 0.15, 0.15]
+    joints[KEYPOINTS.index("head"), 2] = 1.65
+    uv = cam.project(joints)
+    u0, u1 = int(np.floor(uv[:, 0].min())) - 3, int(np.ceil(uv[:, 0].max())) + 3
+    v0, v1 = int(np.floor(uv[:, 1].min())) - 3, int(np.ceil(uv[:, 1].max())) + 2
+    mask = np.zeros((120, 160), dtype=bool)
+    mask[v0 : v1 + 1, u0 : u1 + 1] = True  # the whole body: the feet at the bottom
+    assert not _feet_below_silhouette(joints, cam, mask)
+    height = uv[:, 1].max() - uv[0, 1]
+    cut = mask.copy()
+    cut[int(v1 - 0.25 * height) :] = False  # the lower legs hidden: cut a quarter higher
+    assert _feet_below_silhouette(joints, cam, cut)
+    slight = mask.copy()
+    slight[int(v1 - 0.05 * height) :] = False  # a few pixels of sole lost: still seen
+    assert not _feet_below_silhouette(joints, cam, slight)
+    aside = np.zeros_like(mask)
+    aside[v0 : v1 + 1, u1 + 10 : u1 + 30] = True  # a silhouette beside the feet' columns
+    assert _feet_below_silhouette(joints, cam, aside)
+    assert _feet_below_silhouette(joints, cam, np.zeros_like(mask))

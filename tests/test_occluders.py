@@ -95,9 +95,10 @@ def test_table_mask_keeps_the_track_behind_the_table(table_scene: dict) -> None:
     assert np.mean(early) < 0.04
     # the results say where the legs may be hidden (the smoothing's balance step skips them):
     # with the mask, the table lies under the walker's feet in the image throughout (within
-    # a third of the silhouette's height below them); without it the tracker cannot know
-    assert np.array(seen_without).all()
+    # a third of the silhouette's height below them); without it the tracker sees the feet
+    # where it squeezed them into the silhouette, in the first two thirds on every frame
     assert not np.array(seen_with).any()
+    assert np.array(seen_without)[:, : 2 * third].all()
 
 
 def test_occluder_masks_are_checked(table_scene: dict) -> None:

@@ -31,9 +31,11 @@ the pelvis stands to the side of the feet along its line of sight either, and th
 estimate errs there (one oblique camera: the hips' centre 1-85 mm further to the side of the
 feet's centre than the truth's, per recording). A standing or walking body keeps its pelvis
 over its feet. The pelvis's sideways offset from the feet's centre (across the
-pelvis, horizontal) is fitted over the depth window, and the part of it that lies along the
-line of sight is taken back by the share ``balance``: the hips and everything above them move
-along the line of sight, the knees half as far (their angle stays), the feet not at all.
+pelvis, horizontal) is averaged over the depth window's frames, and the part of it that lies
+along the line of sight is taken back by the share ``balance``: the hips and everything above
+them move along the line of sight, the knees half as far (their angle stays), the feet not at
+all. Frames whose legs may be hidden (``legs_seen`` False) are left out of the mean and not
+moved.
 
 Only the key points are smoothed; the pose vector and weight stay the tracker's own.
 """
@@ -148,9 +150,9 @@ class KeypointSmoother:
         horizontal line of sight is fitted over ``depth_window`` frames (odd) with
         ``depth_order`` (see the module docstring). None, or a window of 1: no depth stage.
     balance : float
-        With the depth stage: the share of the pelvis's sideways offset from the feet (fitted
-        over the depth window), its component along the line of sight, taken back (module
-        docstring; 19-point frames). 0: off.
+        With the depth stage: the share of the pelvis's sideways offset from the feet
+        (averaged over the depth window), its component along the line of sight, taken back
+        (module docstring; 19-point frames). 0: off.
     """
 
     def __init__(
@@ -228,8 +230,8 @@ class KeypointSmoother:
 
         ``joints`` (K, 3) or None for a frame without a pose; ``restart`` marks a frame that
         starts a new track (a segment boundary before it); ``legs_seen`` False leaves the
-        frame's feet, then the model's guess, out of the balance step's fit
-        (:attr:`tracker.pipeline.FrameResult.legs_seen`).
+        frame, whose feet are then the model's guess, out of the balance step: out of its
+        mean, and not moved (:attr:`tracker.pipeline.FrameResult.legs_seen`).
         """
         j = None if joints is None else np.array(joints, dtype=np.float64)
         frame = SmoothedFrame(float(time_s), j, item, bool(restart), raw=j)
@@ -320,13 +322,13 @@ class KeypointSmoother:
     def _balance_fit(self, seg: list[SmoothedFrame], frame: SmoothedFrame) -> np.ndarray:
         """``frame``'s hips and the points above them moved along the horizontal line of sight
         from :attr:`eye` by ``-balance`` times the component along it of the pelvis's
-        sideways offset fitted over ``seg`` (the knees by half of it)."""
+        sideways offset averaged over the frames of ``seg`` whose legs were seen (the knees by
+        half of it); a frame whose own legs were not seen stays."""
         assert self.eye is not None and frame.joints is not None
-        have = [f for f in seg if f.sideways is not None]
-        if not have or frame.joints.shape[0] != len(KEYPOINTS):
+        if frame.sideways is None or frame.joints.shape[0] != len(KEYPOINTS):
             return frame.joints
-        t = np.array([f.time_s for f in have])
-        offset = self._fit(t, np.stack([f.sideways for f in have]), frame.time_s, self.depth_order)
+        # the mean, not a fit in time: the frames seen may all lie on one side of this one
+        offset = np.mean([f.sideways for f in seg if f.sideways is not None], axis=0)
         sight = 0.5 * (frame.joints[_HIPS[0], :2] + frame.joints[_HIPS[1], :2]) - self.eye[:2]
         n = float(np.linalg.norm(sight))
         if not (n > 1e-6 and np.isfinite(offset).all()):
