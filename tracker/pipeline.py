@@ -130,8 +130,8 @@ class FrameResult:
         given or learned) or the image's lower edge may cut the legs off
         (:func:`_legs_cut`), or the feet project well below the silhouette
         (:func:`_feet_below_silhouette`: hidden by furniture not yet learned, or misplaced).
-        The feet are then the model's guess; the output stage's balance step leaves the frame
-        out.
+        The feet are then the model's guess; the output stage's balance step counts the
+        frame's offset as none.
     """
 
     frame_index: int

@@ -34,8 +34,8 @@ over its feet. The pelvis's sideways offset from the feet's centre (across the
 pelvis, horizontal) is averaged over the depth window's frames, and the part of it that lies
 along the line of sight is taken back by the share ``balance``: the hips and everything above
 them move along the line of sight, the knees half as far (their angle stays), the feet not at
-all. Frames whose legs may be hidden (``legs_seen`` False) are left out of the mean and not
-moved.
+all. Frames whose feet may be hidden (``legs_seen`` False) count as no offset in the mean, so
+the step fades in and out with the feet's evidence.
 
 Only the key points are smoothed; the pose vector and weight stay the tracker's own.
 """
@@ -229,9 +229,9 @@ class KeypointSmoother:
         """Add one frame; returns the frames that are now final (oldest first).
 
         ``joints`` (K, 3) or None for a frame without a pose; ``restart`` marks a frame that
-        starts a new track (a segment boundary before it); ``legs_seen`` False leaves the
-        frame, whose feet are then the model's guess, out of the balance step: out of its
-        mean, and not moved (:attr:`tracker.pipeline.FrameResult.legs_seen`).
+        starts a new track (a segment boundary before it); ``legs_seen`` False: the frame's
+        feet are the model's guess, and its offset counts as none in the balance step's mean
+        (:attr:`tracker.pipeline.FrameResult.legs_seen`).
         """
         j = None if joints is None else np.array(joints, dtype=np.float64)
         frame = SmoothedFrame(float(time_s), j, item, bool(restart), raw=j)
@@ -322,13 +322,17 @@ class KeypointSmoother:
     def _balance_fit(self, seg: list[SmoothedFrame], frame: SmoothedFrame) -> np.ndarray:
         """``frame``'s hips and the points above them moved along the horizontal line of sight
         from :attr:`eye` by ``-balance`` times the component along it of the pelvis's
-        sideways offset averaged over the frames of ``seg`` whose legs were seen (the knees by
-        half of it); a frame whose own legs were not seen stays."""
+        sideways offset averaged over ``seg``, the frames whose feet were not seen counting as
+        no offset (the knees by half of it)."""
         assert self.eye is not None and frame.joints is not None
-        if frame.sideways is None or frame.joints.shape[0] != len(KEYPOINTS):
+        seen = [f.sideways for f in seg if f.sideways is not None]
+        if not seen or frame.joints.shape[0] != len(KEYPOINTS):
             return frame.joints
-        # the mean, not a fit in time: the frames seen may all lie on one side of this one
-        offset = np.mean([f.sideways for f in seg if f.sideways is not None], axis=0)
+        # A mean, not a fit in time (the frames seen may all lie on one side of this one),
+        # over the whole window with the unseen frames counting as no offset: the step fades
+        # in and out with the feet's evidence instead of jumping (the sacrum's path gives the
+        # gait events).
+        offset = np.sum(seen, axis=0) / len(seg)
         sight = 0.5 * (frame.joints[_HIPS[0], :2] + frame.joints[_HIPS[1], :2]) - self.eye[:2]
         n = float(np.linalg.norm(sight))
         if not (n > 1e-6 and np.isfinite(offset).all()):
