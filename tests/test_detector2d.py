@@ -504,15 +504,16 @@ def test_feet_below_the_silhouette() -> None:
     project more than a tenth of the body's projected height below the silhouette's lowest
     pixel in their columns (legs hidden by furniture not yet learned), or outside it."""
     from gaitwatch.conventions import KEYPOINTS
-    from tracker.pipeline import FOOT_POINTS, _feet_below_silhouette
+    from tracker.pipeline import _feet_below_silhouette
+    from tracker.smoothing import FEET
     from tracker.synthetic import side_cameras
 
     cam = side_cameras(1, image_size=(160, 120), centre=(1.0, 0.0))[0]
     joints = np.zeros((19, 3))
     joints[:, 0] = 1.0
     joints[:, 2] = np.linspace(1.65, 0.6, 19)  # a column of points from the head down
-    joints[list(FOOT_POINTS), 2] = [0.08, 0.08, 0.02, 0.02, 0.02, 0.02]
-    joints[list(FOOT_POINTS), 0] += [0.0, 0.0, -0.05, -0.05, 0.15, 0.15]
+    joints[FEET, 2] = [0.08, 0.02, 0.02, 0.08, 0.02, 0.02]  # ankle, heel, toe per side
+    joints[FEET, 0] += [0.0, -0.05, 0.15, 0.0, -0.05, 0.15]
     joints[KEYPOINTS.index("head"), 2] = 1.65
     uv = cam.project(joints)
     u0, u1 = int(np.floor(uv[:, 0].min())) - 3, int(np.ceil(uv[:, 0].max())) + 3

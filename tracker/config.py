@@ -1674,10 +1674,9 @@ class SmoothingConfig(_Model):
             description="With one camera (and the depth stage on): the pelvis's sideways offset "
             "from the feet's centre, averaged over the depth window (frames whose feet are not "
             "seen count as none), is taken back along the line of sight by this share of its "
-            "component "
-            "there: the hips and the body above them move by it, the knees by half, the feet "
-            "stay. A standing or walking body keeps its pelvis over its feet, and one view "
-            "cannot see the offset along its line of sight. 0: off",
+            "component there: the hips and the body above them move by it, the knees by half, "
+            "the feet stay. A standing or walking body keeps its pelvis over its feet, and one "
+            "view cannot see the offset along its line of sight. 0: off",
         ),
     ] = 1.0
 

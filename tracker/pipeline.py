@@ -77,7 +77,7 @@ from tracker.occlusion import OcclusionLearner, background_regions
 from tracker.origin import search_origin
 from tracker.raster import numba_threads, prefer_passive_openmp
 from tracker.segmentation import Segmentation, Segmenter, downscale_mask, keep_blobs
-from tracker.smoothing import RESTART_STATUSES
+from tracker.smoothing import FEET, RESTART_STATUSES
 from tracker.triangulation import fuse_along_rays, fuse_detections
 
 log = logging.getLogger(__name__)
@@ -2283,9 +2283,6 @@ __all__ = ["NOBODY_IN_VIEW", "FrameResult", "Tracker", "N_DOF"]
 LEG_POINTS: tuple[int, ...] = LEFT_POINTS + RIGHT_POINTS
 
 
-#: The feet (both ankles, heels and toes) of :func:`_feet_below_silhouette`.
-FOOT_POINTS: tuple[int, ...] = (13, 14, 15, 16, 17, 18)
-
 #: How far below the silhouette's lowest pixel in their columns the feet may project (the
 #: median of the six points), as a share of the body's projected height, and still count as
 #: seen. Measured offline on the benchmark's written key points: typically 0.02-0.07 of the
@@ -2298,13 +2295,16 @@ def _feet_below_silhouette(joints: np.ndarray, cam, mask: np.ndarray) -> bool:
     """True when the feet of ``joints`` (19, 3) project, at the median of the six foot
     points, more than :data:`FEET_BELOW_SHARE` of the body's projected height (head to the
     lowest foot point) below the lowest foreground pixel of ``mask`` (camera ``cam``'s
-    resolution) in their columns, or outside it: the silhouette does not show them."""
+    resolution) in their columns, or outside it: the silhouette does not show them. The feet
+    are :data:`tracker.smoothing.FEET`."""
     if not mask.any():
         return True
-    uv = cam.project(joints[list(FOOT_POINTS)])
+    uv = cam.project(joints[FEET])
     head_v = float(cam.project(joints[0])[1])
-    height = float(np.nanmax(uv[:, 1])) - head_v
-    if not np.isfinite(uv).all() or not np.isfinite(height) or height <= 0:
+    if not (np.isfinite(uv).all() and np.isfinite(head_v)):
+        return True
+    height = float(uv[:, 1].max()) - head_v
+    if height <= 0:
         return True
     h, w = mask.shape
     rows = np.arange(h)[:, None]

@@ -30,12 +30,12 @@ Balance through one camera (``balance``, with the depth stage): one view cannot 
 the pelvis stands to the side of the feet along its line of sight either, and the filter's
 estimate errs there (one oblique camera: the hips' centre 1-85 mm further to the side of the
 feet's centre than the truth's, per recording). A standing or walking body keeps its pelvis
-over its feet. The pelvis's sideways offset from the feet's centre (across the
-pelvis, horizontal) is averaged over the depth window's frames, and the part of it that lies
-along the line of sight is taken back by the share ``balance``: the hips and everything above
-them move along the line of sight, the knees half as far (their angle stays), the feet not at
-all. Frames whose feet may be hidden (``legs_seen`` False) count as no offset in the mean, so
-the step fades in and out with the feet's evidence.
+over its feet. The pelvis's sideways offset from the feet's centre (across the pelvis,
+horizontal) is averaged over the depth window's frames, and the part of it that lies along the
+line of sight is taken back by the share ``balance``: the hips and everything above them move
+along the line of sight, the knees half as far (their angle stays), the feet not at all.
+Frames whose feet may be hidden (``legs_seen`` False) count as no offset in the mean, so the
+step fades in and out with the feet's evidence.
 
 Only the key points are smoothed; the pose vector and weight stay the tracker's own.
 """
