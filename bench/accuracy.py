@@ -1308,9 +1308,15 @@ def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float
     tcfg = load_tracker_config(args.config) if args.config else TrackerConfig()
     sm, rv = tcfg.smoothing, tcfg.revise
     feet = f", the feet's order {sm.feet_order}" if sm.feet_order not in (None, sm.order) else ""
+    balance = (
+        f", and the pelvis's sideways offset from the feet taken back along its line of sight "
+        f"(balance {sm.balance})"
+        if sm.balance
+        else ""
+    )
     depth = (
         f"; with one camera the distance from it fitted over {sm.depth_window_s} s, order "
-        f"{sm.depth_order}"
+        f"{sm.depth_order}{balance}"
         if sm.depth_window_s
         else ""
     )
