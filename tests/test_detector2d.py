@@ -529,6 +529,6 @@ def test_feet_below_the_silhouette() -> None:
     slight[int(v1 - 0.05 * height) :] = False  # a few pixels of sole lost: still seen
     assert not _feet_below_silhouette(joints, cam, slight)
     aside = np.zeros_like(mask)
-    aside[v0 : v1 + 1, u1 + 10 : u1 + 30] = True  # a silhouette beside the feet' columns
+    aside[v0 : v1 + 1, u1 + 10 : u1 + 30] = True  # a silhouette beside the feet's columns
     assert _feet_below_silhouette(joints, cam, aside)
     assert _feet_below_silhouette(joints, cam, np.zeros_like(mask))

@@ -93,7 +93,7 @@ def test_table_mask_keeps_the_track_behind_the_table(table_scene: dict) -> None:
     assert late_with.mean() < 0.2
     # before the table hides anything the two tracks are alike
     assert np.mean(early) < 0.04
-    # the results say where the legs may be hidden (the smoothing's balance step skips them):
+    # the results say where the feet may be hidden (the balance step counts them as no offset):
     # with the mask, the table lies under the walker's feet in the image throughout (within
     # a third of the silhouette's height below them); without it the tracker sees the feet
     # where it squeezed them into the silhouette, in the first two thirds on every frame
