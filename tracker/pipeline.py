@@ -519,7 +519,8 @@ class Tracker:
         # (time, x, y of the estimate, x, y of the silhouettes' floor point) of recent frames
         self._path: list[tuple[float, float, float, float, float]] = []
         self._floor_now = np.full(2, np.nan)
-        self._legs_seen_now: list[bool] = [True] * len(self.cameras)
+        #: Per camera, whether furniture or the image's edge may cut this frame's legs off.
+        self._legs_cut_now: list[bool] = [False] * len(self.cameras)
         self._time_now = np.nan
         #: (time, x, y) of the silhouettes' floor point over the last seconds: a measurement,
         #: kept across re-initialisations of the estimate, cleared when nobody is in view.
@@ -709,24 +710,35 @@ class Tracker:
         sizes = [(cam.width, cam.height) for cam in self.cameras]
         return self.detector.detect_frames(frames, segs, sizes)
 
+    def _cut(self, segs: Sequence[Segmentation]) -> list[bool]:
+        """Per camera, whether furniture (the occluded pixels, given or learned) or the image's
+        lower edge may cut the person's legs off (:func:`_legs_cut`; False without a
+        silhouette)."""
+        return [
+            not seg.empty and _legs_cut(silhouette_box(seg.blobs), occ, cam)
+            for cam, seg, occ in zip(self.cameras, segs, self._occ_maps, strict=True)
+        ]
+
     def _legs_seen(
-        self, keypoints: Sequence[np.ndarray | None] | None, segs: Sequence[Segmentation]
+        self,
+        keypoints: Sequence[np.ndarray | None] | None,
+        segs: Sequence[Segmentation],
+        cut: Sequence[bool] | None = None,
     ) -> list[np.ndarray | None] | None:
         """The detected key points without the legs' of a camera where furniture (the occluded
         pixels, given or learned) or the image's lower edge may cut the legs off
         (:func:`_legs_cut`): a detector guesses hidden legs and squeezes them into what it
         sees (measured on a rendered walk behind a table: knees and feet 15-30 % of the
         person's height off, with visibilities of 0.6-0.98, on the silhouette and clear of the
-        table)."""
+        table). ``cut``: :meth:`_cut` of ``segs`` when already known."""
         if keypoints is None:
             return None
         kps = list(keypoints)
         if len(kps) != len(segs):
             return kps  # a wrong count: KeypointCue.set_frame says what is wrong
         out: list[np.ndarray | None] = []
-        for cam, seg, occ, d in zip(self.cameras, segs, self._occ_maps, kps, strict=True):
-            box = None if seg.empty else silhouette_box(seg.blobs)
-            if d is not None and box is not None and _legs_cut(box, occ, cam):
+        for c, d in zip(self._cut(segs) if cut is None else cut, kps, strict=True):
+            if d is not None and c:
                 d = np.array(d, dtype=np.float64)
                 if d.shape == (N_KEYPOINTS, 3):  # else KeypointCue.set_frame says what is wrong
                     d[list(LEG_POINTS)] = np.nan
@@ -759,10 +771,7 @@ class Tracker:
             return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW)
         segs = [self._choose_blobs(i, s, notes) for i, s in enumerate(segs)]
         masks = [s.mask for s in segs]
-        self._legs_seen_now = [
-            not seg.empty and not _legs_cut(silhouette_box(seg.blobs), occ, cam)
-            for cam, seg, occ in zip(self.cameras, segs, self._occ_maps, strict=True)
-        ]
+        self._legs_cut_now = self._cut(segs)
         if sum(int(m.sum()) for m in masks) < self.config.min_silhouette_px:
             return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW + " (silhouette too small)")
         if self.colour is not None:  # colour cue: this frame's colours
@@ -780,7 +789,8 @@ class Tracker:
             if keypoints is None and frames is not None and self.detector is not None:
                 keypoints = self.detect_keypoints(frames, segs)
                 heatmaps = self.detector.last_heatmaps
-            self.keypoint_cue.set_frame(self._legs_seen(keypoints, segs), heatmaps)
+            legs = self._legs_seen(keypoints, segs, self._legs_cut_now)
+            self.keypoint_cue.set_frame(legs, heatmaps)
         if any(o is not None for o in self.occlusion):
             self._learn_occluders(masks, notes)
         obs = _Observation(int(frame_index), float(time_s), masks)
@@ -879,9 +889,9 @@ class Tracker:
         silhouette is not cut off by furniture or the image's edge, and the estimate's feet do
         not project well below it."""
         return any(
-            seen and not _feet_below_silhouette(joints, cam, mask)
-            for seen, cam, mask in zip(
-                self._legs_seen_now, self.lik_cameras, self._masks, strict=True
+            not cut and not _feet_below_silhouette(joints, cam, mask)
+            for cut, cam, mask in zip(
+                self._legs_cut_now, self.lik_cameras, self._masks, strict=True
             )
         )
 
