@@ -509,6 +509,10 @@ def small_mask(mask: np.ndarray) -> np.ndarray:
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> float:
+    """Intersection over union of two bool masks; ``a`` is brought to ``b``'s size first when
+    they differ (a tracker run at another ``likelihood_size`` than the truth masks')."""
+    if a.shape != b.shape:
+        a = cv2.resize(a.astype(np.float32), b.shape[::-1], interpolation=cv2.INTER_AREA) > 0.5
     u = np.logical_or(a, b).sum()
     return float(np.logical_and(a, b).sum() / u) if u else math.nan
 

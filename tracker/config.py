@@ -1771,6 +1771,29 @@ class ReviseConfig(_Model):
             "are then final as tracked); bounds the output delay and the memory",
         ),
     ] = 4.0
+    label_votes: Annotated[
+        int,
+        Field(
+            ge=0,
+            le=1000,
+            description="Where the backward pass's legs are the forward pass's exchanged over a "
+            "run of frames, the 2D key-point detections decide which leg is which: the run's "
+            "legs are exchanged back when the detections favour the forward pass's labels on "
+            "at least this many more of its frames than not (summed over the cameras' "
+            "evidence per frame). 0: the backward pass's labels stand (docs/tracker.md, "
+            '"Session 51")',
+        ),
+    ] = 3
+    label_votes_max_cameras: Annotated[
+        int,
+        Field(
+            ge=1,
+            le=16,
+            description="label_votes decides only with at most this many cameras: with two "
+            "the passes seldom disagree on the legs, and the one run of 48 where the votes "
+            "decided was made worse (measured)",
+        ),
+    ] = 1
 
     @model_validator(mode="after")
     def _window(self) -> ReviseConfig:
