@@ -1330,6 +1330,12 @@ def write_results(path: Path, runs: list[Run], argv: list[str], elapsed_s: float
     lg = tcfg.leg_labels
     legs_text = f"decided {lg.lag_s} s later" if lg.enabled else "off"
     revise_text = f"settled after {rv.settle_s} s" if rv.enabled else "off"
+    if rv.enabled and rv.label_votes:
+        revise_text += (
+            f"; with up to {rv.label_votes_max_cameras} camera(s), where its legs are the "
+            f"forward pass's exchanged, the detections decide which leg is which (net "
+            f"{rv.label_votes} frames)"
+        )
     settings_text = (
         f"tracker settings `{args.config}` over the defaults ("
         if args.config
