@@ -991,6 +991,8 @@ class Tracker:
         # frames whose backward result is not continuous with the one before (a restart).
         votes: list[int | None] = []
         breaks: set[int] = set()
+        rc = self.config.revise
+        voting = rc.label_votes > 0 and len(self.cameras) <= rc.label_votes_max_cameras
         oldest = window[-1][1]  # the forward result of the oldest frame revised
         for obs, fwd in reversed(window[:-1]):
             b._lik.count = 0
@@ -1007,9 +1009,11 @@ class Tracker:
             if r.status in RESTART_STATUSES and out:  # not continuous with the later frame
                 out[-1].status = "reinitialised"
                 breaks.add(len(out))
-            disagree = fwd.has_pose and _legs_exchanged(r.joints, fwd.joints)
-            points = None if b.keypoint_cue is None else b.keypoint_cue.points
-            votes.append(label_vote(r.joints, points, self.cameras) if disagree else None)
+            if voting and fwd.has_pose and _legs_exchanged(r.joints, fwd.joints):
+                points = None if b.keypoint_cue is None else b.keypoint_cue.points
+                votes.append(label_vote(r.joints, points, self.cameras))
+            else:
+                votes.append(None)
             out.append(
                 FrameResult(
                     frame_index=fwd.frame_index,
