@@ -156,3 +156,15 @@ def test_a_run_is_exchanged_when_the_detections_favour_it_enough() -> None:
     assert _relabel([1, 1, 1, 1], set(), need=0) == [False] * 4
     assert _relabel([1, 1, 1, 1], set(), cameras=2) == [False] * 4
     assert _relabel([1, 1, 1, 1], set(), cameras=2, need=1) == [False] * 4
+
+
+def test_label_vote_settings_are_checked() -> None:
+    import pytest
+    from pydantic import ValidationError
+
+    from tracker.config import ReviseConfig
+
+    assert ReviseConfig().label_votes == 3 and ReviseConfig().label_votes_max_cameras == 1
+    for bad in ({"label_votes": -1}, {"label_votes_max_cameras": 0}, {"label_votes": 1.5}):
+        with pytest.raises(ValidationError):
+            ReviseConfig(**bad)
