@@ -121,7 +121,11 @@ def test_label_vote_follows_the_detections() -> None:
 
 
 def _relabel(
-    votes: list[int | None], breaks: set[int], need: int = 3, cameras: int = 1
+    votes: list[int | None],
+    breaks: set[int],
+    need: int = 3,
+    cameras: int = 1,
+    dt: float = 0.05,
 ) -> list[bool]:
     """Which of the results ``_relabel_revised`` exchanges (True) for these votes."""
     from types import SimpleNamespace
@@ -135,7 +139,7 @@ def _relabel(
     for r in out:
         r.joints = j.copy()
     cfg = TrackerConfig(revise=ReviseConfig(label_votes=need))
-    me = SimpleNamespace(config=cfg, cameras=[None] * cameras)
+    me = SimpleNamespace(config=cfg, cameras=[None] * cameras, dt_default=dt)
     Tracker._relabel_revised(me, out, votes, breaks)
     flags = [bool(np.allclose(r.joints, exchange_legs(j))) for r in out]
     for r, f in zip(out, flags, strict=True):
@@ -152,6 +156,9 @@ def test_a_run_is_exchanged_when_the_detections_favour_it_enough() -> None:
     # a restart in the backward pass ends a run
     assert _relabel([1, 1, 1, 1], {2}) == [False] * 4
     assert _relabel([1, 1, 1, 1, 1], {2}) == [False, False, True, True, True]
+    # the votes are stated at 20 Hz: at 40 Hz a run needs twice as many
+    assert _relabel([1, 1, 1, 1, 1], set(), dt=0.025) == [False] * 5
+    assert _relabel([1] * 6, set(), dt=0.025) == [True] * 6
     # off, and not with two cameras (revise.label_votes_max_cameras)
     assert _relabel([1, 1, 1, 1], set(), need=0) == [False] * 4
     assert _relabel([1, 1, 1, 1], set(), cameras=2) == [False] * 4

@@ -1780,7 +1780,8 @@ class ReviseConfig(_Model):
             "run of frames, the 2D key-point detections decide which leg is which: the run's "
             "legs are exchanged back when the detections favour the forward pass's labels on "
             "at least this many more of its frames than not (summed over the cameras' "
-            "evidence per frame). 0: the backward pass's labels stand (docs/tracker.md, "
+            "evidence per frame). Frames at 20 Hz (reference_dt_s): the same time at the "
+            "cameras' frame rate. 0: the backward pass's labels stand (docs/tracker.md, "
             '"Session 51")',
         ),
     ] = 3

@@ -1041,12 +1041,13 @@ class Tracker:
         over each run of consecutive frames where its legs are the forward pass's exchanged
         (``votes[i]`` not None; a run ends at a restart, ``breaks``), when the detections favour
         the forward pass's labels on ``revise.label_votes`` more of the run's frames than not
-        (the sum of ``votes``), with at most ``revise.label_votes_max_cameras`` cameras. In
-        place; the poses (DOFs) stay the backward pass's."""
+        (the sum of ``votes``; frames at 20 Hz, :func:`frames_at_rate`), with at most
+        ``revise.label_votes_max_cameras`` cameras. In place; the poses (DOFs) stay the
+        backward pass's."""
         rc = self.config.revise
-        need = rc.label_votes
-        if need <= 0 or len(self.cameras) > rc.label_votes_max_cameras:
+        if rc.label_votes <= 0 or len(self.cameras) > rc.label_votes_max_cameras:
             return
+        need = frames_at_rate(rc.label_votes, self.config.reference_dt_s, self.dt_default)
         runs: list[list[int]] = []
         for i, v in enumerate(votes):
             if v is None:
