@@ -91,18 +91,16 @@ def _side_camera():
 
 
 def test_legs_exchanged_tells_the_other_labelling() -> None:
-    from tracker.leglabels import exchange_legs
-    from tracker.pipeline import _legs_exchanged
+    from tracker.leglabels import exchange_legs, labels_differ
 
     j = _walking_joints()
-    assert not _legs_exchanged(j, j)
-    assert _legs_exchanged(exchange_legs(j), j)
-    assert not _legs_exchanged(exchange_legs(j) + 0.01, exchange_legs(j))
+    assert not labels_differ(j, j)
+    assert labels_differ(exchange_legs(j), j)
+    assert not labels_differ(exchange_legs(j) + 0.01, exchange_legs(j))
 
 
 def test_label_vote_follows_the_detections() -> None:
-    from tracker.leglabels import exchange_legs
-    from tracker.pipeline import label_vote
+    from tracker.leglabels import exchange_legs, label_vote
 
     j = _walking_joints()
     cam = _side_camera()
@@ -140,6 +138,7 @@ def _relabel(
         r.joints = j.copy()
     cfg = TrackerConfig(revise=ReviseConfig(label_votes=need))
     me = SimpleNamespace(config=cfg, cameras=[None] * cameras, dt_default=dt)
+    me._label_votes_needed = lambda: Tracker._label_votes_needed(me)
     Tracker._relabel_revised(me, out, votes, breaks)
     flags = [bool(np.allclose(r.joints, exchange_legs(j))) for r in out]
     for r, f in zip(out, flags, strict=True):

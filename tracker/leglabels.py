@@ -30,6 +30,7 @@ the written DOFs with the legs exchanged (that would mirror the legs about the p
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -38,6 +39,7 @@ import numpy as np
 from gaitwatch.conventions import L_ANKLE, L_HEEL, L_KNEE, L_TOE, R_ANKLE, R_HEEL, R_KNEE, R_TOE
 from tracker.config import LegLabelConfig
 from tracker.smoothing import segment_starts
+from tracker.triangulation import side_distances
 
 #: The key points exchanged with the other leg's, and scored (knee, ankle, heel, toe).
 LEFT_POINTS: tuple[int, ...] = (L_KNEE, L_ANKLE, L_HEEL, L_TOE)
@@ -52,6 +54,47 @@ def exchange_legs(joints: np.ndarray) -> np.ndarray:
     out[..., _LEFT, :] = joints[..., _RIGHT, :]
     out[..., _RIGHT, :] = joints[..., _LEFT, :]
     return out
+
+
+def labels_differ(joints: np.ndarray, other: np.ndarray) -> bool:
+    """True when ``joints``' legs (knees, ankles, heels, toes; (19, 3)) lie nearer ``other``'s
+    with the two legs' key points exchanged than as they are: the two poses label the legs the
+    other way round."""
+    a = np.asarray(joints, dtype=np.float64)
+    b = np.asarray(other, dtype=np.float64)
+    legs = _LEFT + _RIGHT
+    same = np.linalg.norm(a[legs] - b[legs], axis=1).mean()
+    swapped = np.linalg.norm(exchange_legs(a)[legs] - b[legs], axis=1).mean()
+    return bool(swapped < same)
+
+
+def label_vote(joints: np.ndarray, points: Sequence[np.ndarray | None] | None, cameras) -> int:
+    """Which labelling of ``joints``' legs (19, 3) this frame's detections favour: +1 when
+    their projections lie nearer the detected points with the legs exchanged than as they are,
+    -1 when farther, 0 when no camera has a detected point on both legs or it is a tie
+    (``points``: per camera None or the detected (19, 2) pixels, NaN where none;
+    :attr:`tracker.keypoints2d.KeypointCue.points`). The distances
+    (:func:`tracker.triangulation.side_distances`, over the knee, ankle, heel and toe pairs
+    seen on both legs) are summed over the cameras."""
+    if points is None:
+        return 0
+    j = np.asarray(joints, dtype=np.float64)
+    keep = exchanged = 0.0
+    seen = False
+    for cam, uv in zip(cameras, points, strict=True):
+        if uv is None:
+            continue
+        dist = side_distances(
+            cam, np.asarray(uv, dtype=np.float64), j, _LEFT, _RIGHT, common_only=True
+        )
+        if dist is None:
+            continue
+        seen = True
+        keep += dist[0]
+        exchanged += dist[1]
+    if not seen or exchanged == keep:
+        return 0
+    return 1 if exchanged < keep else -1
 
 
 @dataclass

@@ -73,9 +73,7 @@ from tracker.dof import DOF, LEFT_LEG, N_DOF, RIGHT_LEG, SEATED_DOFS, wrap_angle
 from tracker.filters import Filter, make_filter, select_distinct
 from tracker.init import body_configurations, camera_floor_point, floor_point, initial_search
 from tracker.keypoints2d import LEFT_POINTS, RIGHT_POINTS, KeypointHeatmaps
-from tracker.leglabels import LEFT_POINTS as LABEL_LEFT
-from tracker.leglabels import RIGHT_POINTS as LABEL_RIGHT
-from tracker.leglabels import exchange_legs
+from tracker.leglabels import exchange_legs, label_vote, labels_differ
 from tracker.occlusion import OcclusionLearner, background_regions
 from tracker.origin import search_origin
 from tracker.raster import numba_threads, prefer_passive_openmp
@@ -991,8 +989,7 @@ class Tracker:
         # frames whose backward result is not continuous with the one before (a restart).
         votes: list[int | None] = []
         breaks: set[int] = set()
-        rc = self.config.revise
-        voting = rc.label_votes > 0 and len(self.cameras) <= rc.label_votes_max_cameras
+        voting = self._label_votes_needed() > 0
         oldest = window[-1][1]  # the forward result of the oldest frame revised
         for obs, fwd in reversed(window[:-1]):
             b._lik.count = 0
@@ -1009,7 +1006,7 @@ class Tracker:
             if r.status in RESTART_STATUSES and out:  # not continuous with the later frame
                 out[-1].status = "reinitialised"
                 breaks.add(len(out))
-            if voting and fwd.has_pose and _legs_exchanged(r.joints, fwd.joints):
+            if voting and fwd.has_pose and labels_differ(r.joints, fwd.joints):
                 points = None if b.keypoint_cue is None else b.keypoint_cue.points
                 votes.append(label_vote(r.joints, points, self.cameras))
             else:
@@ -1034,6 +1031,15 @@ class Tracker:
             self._relabel_revised(out, votes, breaks)
         return out[::-1]
 
+    def _label_votes_needed(self) -> int:
+        """The net votes a run of disagreeing frames needs (``revise.label_votes``, frames at
+        20 Hz, :func:`frames_at_rate`); 0 when the votes do not decide (off, or more than
+        ``revise.label_votes_max_cameras`` cameras)."""
+        rc = self.config.revise
+        if rc.label_votes <= 0 or len(self.cameras) > rc.label_votes_max_cameras:
+            return 0
+        return frames_at_rate(rc.label_votes, self.config.reference_dt_s, self.dt_default)
+
     def _relabel_revised(
         self, out: list[FrameResult], votes: list[int | None], breaks: set[int]
     ) -> None:
@@ -1044,10 +1050,9 @@ class Tracker:
         (the sum of ``votes``; frames at 20 Hz, :func:`frames_at_rate`), with at most
         ``revise.label_votes_max_cameras`` cameras. In place; the poses (DOFs) stay the
         backward pass's."""
-        rc = self.config.revise
-        if rc.label_votes <= 0 or len(self.cameras) > rc.label_votes_max_cameras:
+        need = self._label_votes_needed()
+        if need <= 0:
             return
-        need = frames_at_rate(rc.label_votes, self.config.reference_dt_s, self.dt_default)
         runs: list[list[int]] = []
         for i, v in enumerate(votes):
             if v is None:
@@ -2373,51 +2378,6 @@ def _feet_below_silhouette(joints: np.ndarray, cam, mask: np.ndarray) -> bool:
     low = bottom[np.clip(cols, 0, w - 1)]
     below = np.where(inside & (low >= 0), uv[:, 1] - low, np.inf)
     return bool(np.median(below) > FEET_BELOW_SHARE * height)
-
-
-def _legs_exchanged(joints: np.ndarray, other: np.ndarray) -> bool:
-    """True when ``joints``' legs (knees, ankles, heels, toes; (19, 3)) lie nearer ``other``'s
-    with the two legs' key points exchanged than as they are: the two poses label the legs the
-    other way round."""
-    a = np.asarray(joints, dtype=np.float64)
-    b = np.asarray(other, dtype=np.float64)
-    legs = list(LABEL_LEFT) + list(LABEL_RIGHT)
-    same = np.linalg.norm(a[legs] - b[legs], axis=1).mean()
-    swapped = np.linalg.norm(exchange_legs(a)[legs] - b[legs], axis=1).mean()
-    return bool(swapped < same)
-
-
-def label_vote(joints: np.ndarray, points: Sequence[np.ndarray | None] | None, cameras) -> int:
-    """Which labelling of ``joints``' legs (19, 3) this frame's detections favour: +1 when
-    their projections lie nearer the detected points with the legs exchanged than as they are,
-    -1 when farther, 0 when no camera has a detected point on both legs (``points``: per camera
-    None or the detected (19, 2) pixels, NaN where none; :attr:`KeypointCue.points`). Summed
-    over the cameras and over the knee, ankle, heel and toe pairs seen on both legs."""
-    if points is None:
-        return 0
-    left, right = list(LABEL_LEFT), list(LABEL_RIGHT)
-    keep = exchanged = 0.0
-    seen = False
-    for cam, uv in zip(cameras, points, strict=True):
-        if uv is None:
-            continue
-        d = np.asarray(uv, dtype=np.float64)
-        both = np.isfinite(d[left]).all(axis=1) & np.isfinite(d[right]).all(axis=1)
-        if not both.any():
-            continue
-        p = np.asarray(cam.project(np.asarray(joints, dtype=np.float64)))
-        pl, pr = p[left][both], p[right][both]
-        dl, dr = d[left][both], d[right][both]
-        if not (np.isfinite(pl).all() and np.isfinite(pr).all()):
-            continue
-        seen = True
-        keep += float(np.linalg.norm(pl - dl, axis=1).sum() + np.linalg.norm(pr - dr, axis=1).sum())
-        exchanged += float(
-            np.linalg.norm(pl - dr, axis=1).sum() + np.linalg.norm(pr - dl, axis=1).sum()
-        )
-    if not seen or exchanged == keep:
-        return 0
-    return 1 if exchanged < keep else -1
 
 
 def _legs_cut(box: tuple[int, int, int, int], occ: np.ndarray | None, cam) -> bool:

@@ -83,6 +83,32 @@ def triangulate(cameras: Sequence[Camera], pixels: np.ndarray) -> np.ndarray | N
     return x
 
 
+def side_distances(
+    cam: Camera,
+    det: np.ndarray,
+    joints: np.ndarray,
+    left: Sequence[int],
+    right: Sequence[int],
+    *,
+    common_only: bool,
+) -> tuple[float, float] | None:
+    """How far the camera's detected pixels ``det`` (19, 2+) of the points ``left`` and
+    ``right`` lie from the projections of ``joints`` (19, 3): the summed distances as labelled
+    and with the two sides exchanged, over the points detected; with ``common_only`` only over
+    those finite under both labellings (a point detected on both sides), and None when there
+    are none."""
+    proj_l, proj_r = cam.project(joints[list(left)]), cam.project(joints[list(right)])
+    det_l, det_r = det[list(left), :2], det[list(right), :2]
+    d_same = np.linalg.norm(np.concatenate([det_l - proj_l, det_r - proj_r]), axis=1)
+    d_swap = np.linalg.norm(np.concatenate([det_r - proj_l, det_l - proj_r]), axis=1)
+    if common_only:
+        both = np.isfinite(d_same) & np.isfinite(d_swap)
+        if not both.any():
+            return None
+        d_same, d_swap = d_same[both], d_swap[both]
+    return float(np.nansum(d_same)), float(np.nansum(d_swap))
+
+
 def _sides(
     cam: Camera,
     det: np.ndarray,
@@ -94,19 +120,11 @@ def _sides(
 ) -> np.ndarray:
     """The camera's detected pixels ``(2, n, 2)`` of the points ``left`` and ``right`` (n each)
     for the written left and right side: as labelled or exchanged, whichever lies nearer the
-    written points' projections (NaN: not detected). The distances summed are those of the
-    points detected; with ``common_only`` only those finite under both labellings (none: as
-    labelled)."""
-    proj_l, proj_r = cam.project(joints[list(left)]), cam.project(joints[list(right)])
+    written points' projections (:func:`side_distances`; NaN: not detected; a tie, or with
+    ``common_only`` no point detected on both sides: as labelled)."""
     det_l, det_r = det[list(left), :2], det[list(right), :2]
-    d_same = np.linalg.norm(np.concatenate([det_l - proj_l, det_r - proj_r]), axis=1)
-    d_swap = np.linalg.norm(np.concatenate([det_r - proj_l, det_l - proj_r]), axis=1)
-    if common_only:
-        use = np.isfinite(d_same) & np.isfinite(d_swap)
-        if not use.any():
-            return np.stack([det_l, det_r])
-        d_same, d_swap = d_same[use], d_swap[use]
-    swap = np.nansum(d_swap) < np.nansum(d_same)
+    dist = side_distances(cam, det, joints, left, right, common_only=common_only)
+    swap = dist is not None and dist[1] < dist[0]
     return np.stack([det_r, det_l]) if swap else np.stack([det_l, det_r])
 
 
