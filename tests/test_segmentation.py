@@ -289,3 +289,40 @@ def test_clean_inside_the_foreground_box_equals_the_whole_frame(kernels: tuple[i
         assert np.array_equal(labels, ref_labels), trial
         assert np.array_equal(mask, ref_labels > 0), trial
         assert [(b.area, b.bbox, b.centroid) for b in blobs] == ref_blobs, trial
+
+
+@pytest.mark.parametrize("scale", [1.0, 0.5])
+def test_from_foreground_is_apply_after_the_raw_foreground(
+    rng: np.random.Generator, scale: float
+) -> None:
+    """A given foreground goes through apply's clean-up, labelling and downscale: the same
+    Segmentation as apply() on the frame whose raw foreground it is."""
+    bg = _background(rng)
+    frame = _frame(bg, _person_mask(cx=70) | _person_mask(cx=230, top=20), rng, speckles=True)
+    seg = Segmenter(SegmentationConfig(work_scale=scale), bg)
+    a = seg.apply(frame)
+    b = seg.from_foreground(seg.raw_foreground(frame))
+    assert np.array_equal(a.mask_full, b.mask_full) and np.array_equal(a.mask, b.mask)
+    assert np.array_equal(a.labels, b.labels) and a.blobs == b.blobs
+    assert len(b.blobs) == 2
+
+
+def test_from_foreground_of_a_person_mask(rng: np.random.Generator) -> None:
+    """A true person mask (the benchmark's oracle) gives that person's blob and mask."""
+    bg = _background(rng)
+    person = _person_mask()
+    seg = Segmenter(SegmentationConfig(), bg).from_foreground(person)
+    assert len(seg.blobs) == 1 and _iou(seg.mask_full, person) > 0.97
+    assert seg.mask.shape == (120, 160)
+    assert np.array_equal(seg.mask, downscale_mask(seg.mask_full, (160, 120)))
+    empty = Segmenter(SegmentationConfig(), bg).from_foreground(np.zeros((H, W), bool))
+    assert empty.empty and not empty.mask.any()
+
+
+def test_from_foreground_rejects_a_mask_of_another_size(rng: np.random.Generator) -> None:
+    seg = Segmenter(SegmentationConfig(work_scale=0.5), _background(rng))
+    with pytest.raises(SegmentationError, match="neither the frame's 320x240"):
+        seg.from_foreground(np.zeros((100, 100), bool))
+    adaptive = Segmenter(SegmentationConfig(mode="mog2"))
+    with pytest.raises(SegmentationError, match="no frame size yet"):
+        adaptive.from_foreground(np.zeros((H, W), bool))

@@ -622,9 +622,22 @@ class Segmenter:
 
     def apply(self, frame: np.ndarray) -> Segmentation:
         """Segment one frame: uint8 (H, W, 3) BGR or (H, W) grey -> :class:`Segmentation`."""
-        fg = self.raw_foreground(frame)
-        assert self._shape is not None
+        return self.from_foreground(self.raw_foreground(frame))
+
+    def from_foreground(self, fg: np.ndarray) -> Segmentation:
+        """The clean-up, blobs and downscale of :meth:`apply` on a raw foreground mask: bool
+        (h, w) at the frame's size or at the working resolution, e.g. a person mask from
+        elsewhere (the benchmark's true masks, ``bench/accuracy.py --true-masks``)."""
+        fg = np.asarray(fg, dtype=bool)
+        if self._shape is None:
+            raise SegmentationError("no frame size yet: give a background or segment a frame")
         height, width = self._shape[:2]
+        work = self._work_size(width, height)
+        if fg.shape not in ((height, width), (work[1], work[0])):
+            raise SegmentationError(
+                f"foreground mask {fg.shape[1]}x{fg.shape[0]} is neither the frame's "
+                f"{width}x{height} nor the working resolution's {work[0]}x{work[1]}"
+            )
         if fg.shape == (height, width):
             mask_full, labels, blobs = self.clean(fg)
             mask = downscale_mask(mask_full, self.config.output_size)
