@@ -101,7 +101,7 @@ import tempfile
 import time
 import warnings
 from collections import defaultdict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -368,10 +368,30 @@ def several_draws(runs: list[Run]) -> bool:
 _MOTIONS: dict[str, Trajectory] = {}
 
 
-def load_recording(name: str, data: Path) -> Trajectory:
-    """The recording from ``start_s`` on (times restart at 0)."""
+def on_the_spot(tr: Trajectory) -> Trajectory:
+    """The walk of ``tr`` on a treadmill: the sacrum's least-squares horizontal velocity over
+    the recording (the hips' midpoint where the sacrum is missing) taken off every point, so
+    that the body stays while the feet move back in stance as on a running belt."""
+    p = np.array(tr.positions, dtype=np.float64)
+    root = p[:, SACRUM, :2]
+    if not np.isfinite(root).all():
+        root = 0.5 * (p[:, L_HIP, :2] + p[:, R_HIP, :2])
+    ok = np.isfinite(root).all(axis=1)
+    if ok.sum() < 2:
+        raise ValueError("on the spot: the recording has no pelvis to follow")
+    t = np.asarray(tr.times, dtype=np.float64)
+    velocity = np.polyfit(t[ok] - t[ok].mean(), root[ok], 1)[0]
+    p[:, :, :2] -= ((t - t[0])[:, None] * velocity)[:, None, :]
+    return replace(tr, positions=p)
+
+
+def load_recording(name: str, data: Path, spot: bool = False) -> Trajectory:
+    """The recording from ``start_s`` on (times restart at 0); ``spot``: walked on the spot
+    (:func:`on_the_spot`)."""
     from gaitwatch.sim.motion import load_motion
 
+    if spot:
+        return on_the_spot(load_recording(name, data))
     if name not in _MOTIONS:
         rec = RECORDINGS[name]
         # mocap files, and joint-angle cycles (.mot) walked at 1.70 m for three cycles
@@ -399,6 +419,7 @@ def build(
     data: Path,
     one_colour: bool = False,
     fps: float = 20.0,
+    spot: bool = False,
 ):
     from gaitwatch.sim.scene import BodyShape, Clothing, Room, SceneConfig
     from gaitwatch.sim.synth import build_scene
@@ -428,7 +449,7 @@ def build(
         **({} if view.camera_height_m is None else {"camera_height_m": view.camera_height_m}),
         **({} if view.hfov_deg is None else {"hfov_deg": view.hfov_deg}),
     )
-    return build_scene(load_recording(name, data), cfg)
+    return build_scene(load_recording(name, data, spot), cfg)
 
 
 def scene_frames(scene, direct: bool, tmp: Path):
@@ -701,12 +722,16 @@ def track(
     occluders=None,
     probe=None,
     keypoints=None,
+    person_masks=None,
 ):
     """Track ``frames`` as ``gaitwatch track`` would and score nothing: (the written key
     points as a Trajectory, an info dict). ``probe(tracker, k, result)``, when given, is called
     after each frame is processed (the likelihood then holds frame k's silhouettes).
     ``keypoints``: per frame, the detected 2D key points per camera for the key-point cue
-    (``Tracker.process``'s ``keypoints``), or None."""
+    (``Tracker.process``'s ``keypoints``), or None. ``person_masks``: per frame, per camera,
+    the true person mask at the frame's size (an oracle): the tracker's background subtraction
+    is replaced by it (then cleaned up, labelled and downscaled as its own foreground would be);
+    None segments the frames."""
     from tracker.ensemble import make_tracker
 
     cfg = variant_config(filt, settings)
@@ -729,6 +754,15 @@ def track(
     seg_iou, est_iou, seen, weights, fit_w, est_w = [], [], [], [], [], []
     fits = fits or {}
     segment = tr.segment
+    now = [0]  # the frame being processed
+    if person_masks is not None:
+        segmenters = tr.tracks[0].segmenters if hasattr(tr, "tracks") else tr.segmenters
+
+        def segment(imgs):  # the oracle: the true person masks instead of the segmentation
+            return [
+                sg.from_foreground(m)
+                for sg, m in zip(segmenters, person_masks[now[0]], strict=True)
+            ]
 
     def spy(imgs):  # records the tracker's silhouettes without changing them
         segs = segment(imgs)
@@ -737,6 +771,7 @@ def track(
 
     tr.segment = spy
     for k, imgs in enumerate(frames):
+        now[0] = k
         t0 = time.perf_counter()
         res = tr.process(k, k / fps, imgs, None if keypoints is None else keypoints[k])
         times_ms.append(1000 * (time.perf_counter() - t0))
@@ -1365,12 +1400,19 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
   and the true stature; {_seeds_text(args)}.
   Total run time {elapsed_s / 60:.1f} min.
 - Bodies differ from the tracker's model: shape preset / clothing per recording (column
-  "body"){"; every person dressed in one plain colour (--one-colour)" if args.one_colour else ""};
+  "body"){"; every person dressed in one plain colour (--one-colour)" if args.one_colour else ""}{
+        "; every walk on the spot, as on a treadmill (--on-the-spot)" if args.on_the_spot else ""
+    };
   a 90 degree turn in 16_18; occluders (`@table`, `@sofa`) stand between the first camera and
   the walk{
         "; the tracker is given the furniture's masks (--occluder-masks)"
         if args.occluder_masks
         else " (the tracker is not told where)"
+    }{
+        ". An oracle: the tracker is given the true person masks instead of its background "
+        "subtraction (--true-masks)"
+        if args.true_masks
+        else ""
     }.
 - Scored: the key points as `gaitwatch track` writes them: each track's first frames revised
   by the backward pass (the settings' `[revise]`: {revise_text}), each frame's leg labels
@@ -1482,6 +1524,18 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help="give the tracker the furniture's masks (gaitwatch track --occluder), as an "
         "installer would mark them",
     )
+    ap.add_argument(
+        "--on-the-spot",
+        action="store_true",
+        help="walk every recording on a treadmill: its travel taken off (the sacrum's "
+        "least-squares horizontal velocity), the feet moving back in stance",
+    )
+    ap.add_argument(
+        "--true-masks",
+        action="store_true",
+        help="an oracle: give the tracker the true person masks instead of its background "
+        "subtraction (how much the segmentation costs)",
+    )
     ap.add_argument("--overlays", type=Path, help="write worst-frame overlays (PNG) here")
     ap.add_argument(
         "--json",
@@ -1568,7 +1622,10 @@ def main(argv: list[str] | None = None) -> int:
             (d, p) for d in draws for p in plan
         ):
             bar.set_description(f"{rec} {view.label}: rendering")
-            scene = build(rec, view, args.max_frames, seed, args.data, args.one_colour, args.fps)
+            scene = build(
+                rec, view, args.max_frames, seed, args.data, args.one_colour, args.fps,
+                args.on_the_spot,
+            )  # fmt: skip
             frames, masks, bgs, cams, truth = scene_frames(
                 scene, args.direct, Path(tmpd) / f"s{si}"
             )
@@ -1578,6 +1635,11 @@ def main(argv: list[str] | None = None) -> int:
                 from gaitwatch.sim.synth import occluder_mask
 
                 occluders = [occluder_mask(scene, i) for i in range(len(cams))]
+            person_masks = None
+            if args.true_masks:
+                from gaitwatch.sim.synth import render_frames
+
+                person_masks = [ms for _, _, ms in render_frames(scene)][: len(frames)]
             keypoints = None
             if args.detector_python is not None:
                 bar.set_description(f"{rec} {view.label}: 2D key points")
@@ -1605,6 +1667,7 @@ def main(argv: list[str] | None = None) -> int:
                     settings,
                     occluders,
                     keypoints=keypoints,
+                    person_masks=person_masks,
                 )
                 m = evaluate(
                     truth,

@@ -122,3 +122,59 @@ def test_fps_out_of_range_exits_cleanly(accuracy, capsys):
     assert "--fps must be within 1..240" in capsys.readouterr().err
     assert accuracy.parse_args(["--fps", "30"]).fps == 30.0
     assert accuracy.parse_args([]).fps == 20.0
+
+
+class _Bar:
+    def update(self, n: int) -> None:
+        pass
+
+
+def test_true_masks_replace_the_segmentation(accuracy):
+    """--true-masks (an oracle): the tracker sees the true person masks, cleaned up and
+    downscaled as its own foreground would be; an empty mask is nobody in view."""
+    if not (accuracy.DATA / accuracy.RECORDINGS["07_06"].path).is_file():
+        pytest.skip(f"shared recordings not found under {accuracy.DATA}")
+    from gaitwatch.sim.synth import render_frames
+
+    assert accuracy.parse_args(["--true-masks"]).true_masks
+    assert not accuracy.parse_args([]).true_masks
+    scene = accuracy.build("07_06", accuracy.ViewSpec.parse("oblique"), 3, 0, accuracy.DATA)
+    frames, masks, bgs, cams, _ = accuracy.scene_frames(scene, True, Path("."))
+    full = [ms for _, _, ms in render_frames(scene)]
+    settings = {"keypoints": {"detector": "none"}}
+    args = (frames, masks, bgs, cams, scene.body.stature_m, scene.config.fps, "ipf", 0, _Bar())
+    est, info = accuracy.track(*args, settings=settings, person_masks=full)
+    assert info["seg_iou"] > 0.98 and len(est.frames) == 3
+    real, real_info = accuracy.track(*args, settings=settings)
+    assert real_info["seg_iou"] < info["seg_iou"]
+    nobody = [[np.zeros_like(m) for m in ms] for ms in full]
+    est, info = accuracy.track(*args, settings=settings, person_masks=nobody)
+    assert len(est.frames) == 0 and info["seg_iou"] < 0.01
+
+
+def test_on_the_spot_takes_the_travel_off(accuracy):
+    """--on-the-spot: the walk on a treadmill: the sacrum stays (within its sway), heights are
+    unchanged, and a standing foot is carried back at the walking speed."""
+    if not (accuracy.DATA / accuracy.RECORDINGS["07_06"].path).is_file():
+        pytest.skip(f"shared recordings not found under {accuracy.DATA}")
+    walk = accuracy.load_recording("07_06", accuracy.DATA)
+    spot = accuracy.load_recording("07_06", accuracy.DATA, spot=True)
+    t, p, q = walk.times, walk.positions, spot.positions
+    travel = np.hypot(*(p[-1, 2, :2] - p[0, 2, :2]))
+    assert travel > 2.0 and np.hypot(*(q[-1, 2, :2] - q[0, 2, :2])) < 0.1 * travel
+    assert np.array_equal(p[..., 2], q[..., 2], equal_nan=True)
+    speed = travel / (t[-1] - t[0])
+    # the heels' speed where they stand (lowest tenth of their height): 0 overground, the
+    # walking speed on the spot
+    heel = p[:, 15]
+    standing = heel[:, 2] <= np.nanpercentile(heel[:, 2], 10)
+    v = lambda x: np.hypot(*np.gradient(x[:, 15, :2], t, axis=0).T)  # noqa: E731
+    assert np.nanmedian(v(p)[standing]) < 0.2 * speed
+    assert abs(np.nanmedian(v(q)[standing]) - speed) < 0.2 * speed
+    view = accuracy.ViewSpec.parse("oblique")
+    scenes = [accuracy.build("07_06", view, 20, 0, accuracy.DATA, spot=x) for x in (False, True)]
+    moved = [
+        np.hypot(*(sc.truth.positions[-1, 2, :2] - sc.truth.positions[0, 2, :2])) for sc in scenes
+    ]
+    assert moved[0] > 0.8 and moved[1] < 0.1 * moved[0]  # the rendered walk stays too
+    assert accuracy.parse_args(["--on-the-spot"]).on_the_spot
