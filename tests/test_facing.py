@@ -107,16 +107,24 @@ def stepping() -> dict:
     return {"body": body, "cams": cams, "poses": poses, "bgs": bgs, "frames": frames, "dets": dets}
 
 
-def _backward_track(stepping: dict, facing_s: float) -> tuple[list, np.ndarray]:
+def _backward_track(
+    stepping: dict, facing_s: float, swing_s: float = 0.0
+) -> tuple[list, np.ndarray]:
     """Track the clip with the given detections after turning the first frame's estimate
-    round; the notes and the last estimate's heading error (degrees)."""
+    round; the notes and the last estimate's heading error (degrees). ``swing_s``: the swing
+    check's window (0: off, to see the face check alone)."""
     from tracker.pipeline import Tracker
 
     cfg = TrackerConfig(
         ipf=IPFConfig(kept=9),
         keypoints={"enabled": True, "detector": "none"},
         # no walking direction is ever known (as for a walk slower than min_speed_m_s)
-        heading_check={"facing_s": facing_s, "min_speed_m_s": 5.0, "turn_angle_deg": 0.0},
+        heading_check={
+            "facing_s": facing_s,
+            "swing_s": swing_s,
+            "min_speed_m_s": 5.0,
+            "turn_angle_deg": 0.0,
+        },
     )
     tracker = Tracker(
         stepping["cams"],
@@ -148,6 +156,56 @@ def test_face_check_turns_round_a_track_stepping_on_the_spot(stepping: dict) -> 
     notes_off, err_off = _backward_track(stepping, 0.0)
     assert not any("detected face" in n or "re-initialised" in n for n in notes_off), notes_off
     assert err_off > 150.0
+
+
+def test_swing_check_turns_round_a_track_stepping_on_the_spot(stepping: dict) -> None:
+    """No walking direction and no face to go by (the face check off): the raised feet, carried
+    forward relative to the pelvis, turn the backward track round; without it, it stays."""
+    notes, err = _backward_track(stepping, 0.0, swing_s=0.6)
+    assert any("raised feet swing" in n for n in notes), notes
+    assert err < 30.0
+    notes_off, err_off = _backward_track(stepping, 0.0, swing_s=0.0)
+    assert not any("re-initialised" in n for n in notes_off), notes_off
+    assert err_off > 150.0
+
+
+def test_swing_check_needs_a_body_that_stays(stepping: dict) -> None:
+    """The swing check's rules: a window spanning 0.9 of swing_s, the raised feet's way more
+    than max_angle_deg off the heading, consistently, a sacrum that does not travel, not
+    seated, and the backward pass's mirrored time turned back."""
+    from tracker.pipeline import Tracker
+
+    cfg = TrackerConfig(ipf=IPFConfig(kept=9), heading_check={"swing_s": 0.6})
+    tracker = Tracker(
+        stepping["cams"], cfg, rng=np.random.default_rng(2), backgrounds=stepping["bgs"],
+        body=stepping["body"],
+    )  # fmt: skip
+    body, poses = stepping["body"], stepping["poses"]
+    joints = np.asarray(body.forward(poses))
+    for k in range(13):  # 0.65 s of stepping on the spot facing +x
+        tracker._remember_feet(joints[k], k / FPS, continuous=k > 0)
+    t = 12 / FPS
+    found = tracker._swings_backwards(np.pi, t)  # a heading facing -x: backwards
+    assert found is not None
+    direction, consistency = found
+    assert abs(np.degrees(wrap_angle(direction))) < 30.0
+    assert consistency >= cfg.heading_check.swing_consistency
+    assert tracker._swings_backwards(0.0, t) is None  # facing the way the feet swing
+    tracker._time_sign = -1.0  # the backward pass: the same rows swing the other way
+    assert tracker._swings_backwards(0.0, t) is not None
+    tracker._time_sign = 1.0
+    tracker._seated = True
+    assert tracker._swings_backwards(np.pi, t) is None
+    tracker._seated = False
+    short = tracker._feet[-6:]  # 0.25 s: too short a window
+    tracker._feet = short
+    assert tracker._swings_backwards(np.pi, t) is None
+    tracker._feet = []
+    for k in range(13):  # the same steps carried along at 1 m/s: a walk, not on the spot
+        moved = joints[k].copy()
+        moved[:, 0] += 1.0 * k / FPS
+        tracker._remember_feet(moved, k / FPS, continuous=k > 0)
+    assert tracker._swings_backwards(np.pi, t) is None
 
 
 def test_face_check_window_rule_and_seated_mode(stepping: dict) -> None:

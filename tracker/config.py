@@ -728,6 +728,12 @@ class HeadingCheckConfig(_Model):
     candidates are refined however light, as a sustained flip's, and adopted at
     ``facing_ratio``. Not in the seated mode.
 
+    Swing check (``swing_*``): with no walking direction known and the face check silent, the
+    feet decide: a raised foot moves forward relative to the pelvis, on a treadmill too
+    (:mod:`tracker.swing`). When over ``swing_s`` the estimate's raised feet moved more than
+    ``max_angle_deg`` away from its heading, consistently (``swing_consistency``), the heading
+    is checked facing the way they moved, as the face check does. Not in the seated mode.
+
     Turn following (``turn_*``): when the heading is more than ``turn_angle_deg`` (and at most
     ``max_angle_deg``) off the walking direction of the silhouettes' floor points, the reduced
     initial search runs at headings around the walking direction (centred ``turn_lead_deg``
@@ -856,6 +862,31 @@ class HeadingCheckConfig(_Model):
             "the estimate (the detections can mislead too)",
         ),
     ] = 0.85
+    swing_s: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=10,
+            description="Swing check: when no walking direction is known and the face check "
+            "does not turn the heading, the way the estimate's raised feet moved relative to "
+            "its sacrum over this window (at least min_frames frames spanning 0.9 of it; about "
+            "a stride) is the way the person faces (tracker.swing): the swing foot is carried "
+            "forward, on a treadmill too. When it is more than max_angle_deg off the heading, "
+            "the heading is checked facing that way: candidates refined, adopted at "
+            "facing_ratio. Not in the seated mode. 0: off",
+        ),
+    ] = 0.6
+    swing_consistency: Annotated[
+        float,
+        Field(
+            ge=0,
+            le=1,
+            description="Swing check: the raised feet's weighted velocities must agree at "
+            "least this much (their sum's length over the sum of their lengths; the "
+            "estimate's feet are noisy: its walks give 0.1-0.3 where the truth's give 0.7-0.8, "
+            "and the refined candidates' weight decides)",
+        ),
+    ] = 0.1
     turn_angle_deg: Annotated[
         float,
         Field(

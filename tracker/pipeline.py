@@ -79,6 +79,7 @@ from tracker.origin import search_origin
 from tracker.raster import numba_threads, prefer_passive_openmp
 from tracker.segmentation import Segmentation, Segmenter, downscale_mask, keep_blobs
 from tracker.smoothing import FEET, RESTART_STATUSES
+from tracker.swing import swing_direction
 from tracker.triangulation import fuse_along_rays, fuse_detections
 
 log = logging.getLogger(__name__)
@@ -530,6 +531,8 @@ class Tracker:
         #: (time, evidence) of recent tracked frames: the detected face against the estimate's
         #: heading (heading_check.facing_s, KeypointCue.facing).
         self._facing: list[tuple[float, float]] = []
+        #: Per recent frame (time, sacrum, left ankle, right ankle) for the swing check.
+        self._feet: list[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = []
         #: The opposite heading hypothesis after an initialisation (init.both_headings).
         self._alt: _Hypothesis | None = None
         # The shape windows are counted in frames at 20 Hz (config.reference_dt_s): the same
@@ -867,6 +870,7 @@ class Tracker:
             self.keypoint_cue.update(self.body, pose)
         self._remember(pose, time_s, dt, continuous=status == "tracked")
         self._remember_facing(joints, time_s, continuous=status == "tracked")
+        self._remember_feet(joints, time_s, continuous=status == "tracked")
         self._prev_joints = joints
         pose, joints = self._output_arms(pose, joints)
         joints = self._fuse_detections(joints)
@@ -964,6 +968,7 @@ class Tracker:
         b._alt = None
         b._path = []
         b._facing = []
+        b._feet = []
         b._floor_hist = []  # mirrored time
         b._heading_checked_until = -np.inf
         b._time_sign = -self._time_sign
@@ -1924,8 +1929,9 @@ class Tracker:
         self, pose: np.ndarray, weight: float, masks: list[np.ndarray], dt: float, time_s: float
     ) -> tuple[np.ndarray, float, str, bool] | None:
         """Re-initialise facing the walking direction when the heading points backwards (with no
-        walking direction known, facing the way the detected face says: ``facing_s``); follow
-        a turn the heading lags (``heading_check.turn_angle_deg``).
+        walking direction known, facing the way the detected face says: ``facing_s``, or else
+        the way the raised feet swing: ``swing_s``); follow a turn the heading lags
+        (``heading_check.turn_angle_deg``).
 
         Returns
         -------
@@ -1958,14 +1964,24 @@ class Tracker:
                 why += f" for over {hc.sustained_s} s"
         else:
             face = self._faces_backwards(pose, time_s)
-            if face is None:
-                return None
-            # No walk to follow: the detected face turns the heading round. Its candidates are
-            # refined however light, as a sustained flip's (the track has faced the wrong way
-            # for the whole window), and adopted at facing_ratio.
-            travel, off, sustained = float(wrap_angle(yaw + np.pi)), 180.0, True
-            ratio = hc.facing_ratio
-            why = f"away from the detected face (evidence {face:+.3f} over {hc.facing_s} s)"
+            # No walk to follow: the detected face turns the heading round, or else the way the
+            # raised feet swing. The candidates are refined however light, as a sustained
+            # flip's (the track has faced the wrong way for the whole window), and adopted at
+            # facing_ratio.
+            if face is not None:
+                travel, off = float(wrap_angle(yaw + np.pi)), 180.0
+                why = f"away from the detected face (evidence {face:+.3f} over {hc.facing_s} s)"
+            else:
+                swing = self._swings_backwards(yaw, time_s)
+                if swing is None:
+                    return None
+                travel, consistency = swing
+                off = float(np.degrees(abs(wrap_angle(yaw - travel))))
+                why = (
+                    f"away from the way the raised feet swing (consistency {consistency:.2f} "
+                    f"over {hc.swing_s} s)"
+                )
+            sustained, ratio = True, hc.facing_ratio
         span = np.radians(hc.span_deg)
         with _numba_threads(self.threads):
             res = initial_search(
@@ -1981,6 +1997,7 @@ class Tracker:
             )
         self._path = []
         self._facing = []
+        self._feet = []
         self._heading_checked_until = time_s + hc.cooldown_s
         if res is None:
             return None
@@ -2029,6 +2046,45 @@ class Tracker:
         e = self.keypoint_cue.facing(joints, hc.facing_min_profile)
         if e is not None:
             self._facing = [*self._facing, (float(time_s), e)][-64:]
+
+    def _remember_feet(self, joints: np.ndarray, time_s: float, *, continuous: bool) -> None:
+        """Keep this frame's sacrum and ankles for the swing check (``heading_check.swing_s``)."""
+        if not continuous:
+            self._feet = []
+        if self.config.heading_check.swing_s <= 0:
+            return
+        j = np.asarray(joints, dtype=np.float64)
+        row = (float(time_s), j[SACRUM].copy(), j[L_ANKLE].copy(), j[R_ANKLE].copy())
+        self._feet = [*self._feet, row][-128:]
+
+    def _swings_backwards(self, yaw: float, time_s: float) -> tuple[float, float] | None:
+        """(direction, consistency) of the raised feet's swing (:func:`tracker.swing.
+        swing_direction`) over the last ``heading_check.swing_s`` seconds when it points more
+        than ``max_angle_deg`` away from the heading ``yaw`` with at least
+        ``swing_consistency``, else None. Only where the body stays: a sacrum that moved
+        ``min_speed_m_s`` or faster over the window travels (a turn, a walk whose direction
+        the path did not settle), and its feet swing every way. Not in the seated mode
+        (rising, the feet do not swing)."""
+        hc = self.config.heading_check
+        if hc.swing_s <= 0 or self._seated:
+            return None
+        rows = [r for r in self._feet if time_s - r[0] <= hc.swing_s + 1e-9]
+        if len(rows) < max(hc.min_frames, 3) or rows[-1][0] - rows[0][0] < 0.9 * hc.swing_s - 1e-9:
+            return None
+        t = np.array([r[0] for r in rows])
+        sacrum = np.stack([r[1] for r in rows])
+        if np.hypot(*(sacrum[-1, :2] - sacrum[0, :2])) >= hc.min_speed_m_s * (t[-1] - t[0]):
+            return None  # the body travels (turning, say): the walking direction is the guide
+        found = swing_direction(t, sacrum, *(np.stack([r[i] for r in rows]) for i in (2, 3)))
+        if found is None:
+            return None
+        direction, consistency = found
+        if self._time_sign < 0:  # the backward pass's mirrored time: the feet swing back
+            direction = float(wrap_angle(direction + np.pi))
+        off = float(np.degrees(abs(wrap_angle(yaw - direction))))
+        if consistency < hc.swing_consistency or off <= hc.max_angle_deg:
+            return None
+        return direction, consistency
 
     def _faces_backwards(self, pose: np.ndarray, time_s: float) -> float | None:
         """The mean face evidence when the detections have put the face behind the heading of
@@ -2257,6 +2313,7 @@ class Tracker:
         self.low_count = 0
         self._path = []
         self._facing = []
+        self._feet = []
         self._floor_hist = []
         log.debug("frame %d: no pose (%s)", frame_index, reason)
         return FrameResult(
