@@ -171,8 +171,8 @@ def test_swing_check_turns_round_a_track_stepping_on_the_spot(stepping: dict) ->
 
 def test_swing_check_needs_a_body_that_stays(stepping: dict) -> None:
     """The swing check's rules: a window spanning 0.9 of swing_s, the raised feet's way more
-    than max_angle_deg off the heading, consistently, a sacrum that does not travel, not
-    seated, and the backward pass's mirrored time turned back."""
+    than max_angle_deg off the heading, consistently, feet some camera sees, a sacrum that
+    does not travel, not seated, and the backward pass's mirrored time turned back."""
     from tracker.pipeline import Tracker
 
     cfg = TrackerConfig(ipf=IPFConfig(kept=9), heading_check={"swing_s": 0.6})
@@ -200,6 +200,15 @@ def test_swing_check_needs_a_body_that_stays(stepping: dict) -> None:
     short = tracker._feet[-6:]  # 0.25 s: too short a window
     tracker._feet = short
     assert tracker._swings_backwards(np.pi, t) is None
+    tracker._feet = []
+    for k in range(13):  # every camera's legs may be cut off (furniture): no feet to go by
+        tracker._legs_cut_now = [True] * len(stepping["cams"])
+        tracker._remember_feet(joints[k], k / FPS, continuous=k > 0)
+    assert tracker._feet == [] and tracker._swings_backwards(np.pi, t) is None
+    tracker._legs_cut_now = [True] + [False] * (len(stepping["cams"]) - 1)  # one camera sees them
+    for k in range(13):
+        tracker._remember_feet(joints[k], k / FPS, continuous=k > 0)
+    assert tracker._swings_backwards(np.pi, t) is not None
     tracker._feet = []
     for k in range(13):  # the same steps carried along at 1 m/s: a walk, not on the spot
         moved = joints[k].copy()

@@ -2048,10 +2048,12 @@ class Tracker:
             self._facing = [*self._facing, (float(time_s), e)][-64:]
 
     def _remember_feet(self, joints: np.ndarray, time_s: float, *, continuous: bool) -> None:
-        """Keep this frame's sacrum and ankles for the swing check (``heading_check.swing_s``)."""
-        if not continuous:
+        """Keep this frame's sacrum and ankles for the swing check (``heading_check.swing_s``).
+        Only feet some camera sees: where furniture or the image's edge may cut every camera's
+        legs off (:func:`_legs_cut`) the estimate's feet are guesses, and the window restarts."""
+        if not continuous or all(self._legs_cut_now):
             self._feet = []
-        if self.config.heading_check.swing_s <= 0:
+        if self.config.heading_check.swing_s <= 0 or all(self._legs_cut_now):
             return
         j = np.asarray(joints, dtype=np.float64)
         row = (float(time_s), j[SACRUM].copy(), j[L_ANKLE].copy(), j[R_ANKLE].copy())
