@@ -730,9 +730,10 @@ class HeadingCheckConfig(_Model):
 
     Swing check (``swing_*``): with no walking direction known and the face check silent, the
     feet decide: a raised foot moves forward relative to the pelvis, on a treadmill too
-    (:mod:`tracker.swing`). When over ``swing_s`` the estimate's raised feet moved more than
-    ``max_angle_deg`` away from its heading, consistently (``swing_consistency``), the heading
-    is checked facing the way they moved, as the face check does. Not in the seated mode.
+    (:mod:`tracker.swing`). When over ``swing_s`` the estimate's sacrum stayed (slower than
+    ``min_speed_m_s``) and its raised feet moved more than ``max_angle_deg`` away from its
+    heading, consistently (``swing_consistency``), the heading is checked facing the way they
+    moved, as the face check does. Only on feet some camera sees; not in the seated mode.
 
     Turn following (``turn_*``): when the heading is more than ``turn_angle_deg`` (and at most
     ``max_angle_deg``) off the walking direction of the silhouettes' floor points, the reduced
@@ -869,11 +870,12 @@ class HeadingCheckConfig(_Model):
             le=10,
             description="Swing check: when no walking direction is known and the face check "
             "does not turn the heading, the way the estimate's raised feet moved relative to "
-            "its sacrum over this window (at least min_frames frames spanning 0.9 of it; about "
-            "a stride) is the way the person faces (tracker.swing): the swing foot is carried "
-            "forward, on a treadmill too. When it is more than max_angle_deg off the heading, "
-            "the heading is checked facing that way: candidates refined, adopted at "
-            "facing_ratio. Not in the seated mode. 0: off",
+            "its sacrum over this window (at least min_frames frames spanning 0.9 of it; a "
+            "swing phase and more) is the way the person faces (tracker.swing): the swing foot "
+            "is carried forward, on a treadmill too. When the sacrum stayed (slower than "
+            "min_speed_m_s) and that way is more than max_angle_deg off the heading, the "
+            "heading is checked facing it: candidates refined, adopted at facing_ratio. Only "
+            "on feet some camera sees; not in the seated mode. 0: off",
         ),
     ] = 0.6
     swing_consistency: Annotated[
