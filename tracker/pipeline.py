@@ -2051,9 +2051,10 @@ class Tracker:
         """Keep this frame's sacrum and ankles for the swing check (``heading_check.swing_s``).
         Only feet some camera sees: where furniture or the image's edge may cut every camera's
         legs off (:func:`_legs_cut`) the estimate's feet are guesses, and the window restarts."""
-        if not continuous or all(self._legs_cut_now):
+        unseen = all(self._legs_cut_now)
+        if not continuous or unseen:
             self._feet = []
-        if self.config.heading_check.swing_s <= 0 or all(self._legs_cut_now):
+        if unseen or self.config.heading_check.swing_s <= 0:
             return
         j = np.asarray(joints, dtype=np.float64)
         row = (float(time_s), j[SACRUM].copy(), j[L_ANKLE].copy(), j[R_ANKLE].copy())
