@@ -125,7 +125,7 @@ def test_rays_move_points_across_the_line_of_sight(cameras, joints) -> None:
     model's distance from the camera; the sides are matched limb by limb whatever the
     detector's labels; the sacrum moves with the hips; the other points stay."""
     cam = cameras[0]
-    shift = np.array([0.04, 0.03, -0.02])  # a component along the line of sight too
+    shift = np.array([0.04, 0.03, 0.02])  # a component along the line of sight too
     names = ("hips", "heels", "toes", "shoulders", "elbows", "wrists")
     moved = sorted(i for n in names for i in RAY_PAIRS[n])
     true = joints.copy()
@@ -169,6 +169,26 @@ def test_rays_move_points_across_the_line_of_sight(cameras, joints) -> None:
     np.testing.assert_array_equal(whole[rest_moved], out[rest_moved])
     assert np.array_equal(fuse_along_rays(joints, cam, det, ()), joints)
     assert np.array_equal(fuse_along_rays(joints, cam, None, names), joints)
+
+
+def test_rays_move_no_point_below_the_floor(cameras, joints) -> None:
+    """Detections below the floor pull the feet down to the floor and no further; a point
+    already below the floor goes no lower."""
+    cam = cameras[0]
+    feet = [*RAY_PAIRS["heels"], *RAY_PAIRS["toes"]]
+    assert np.allclose(joints[feet, 2], 0.0)
+    true = joints.copy()
+    true[feet, 2] -= 0.08
+    det = cam.project(true)
+    out = fuse_along_rays(joints, cam, det, ("heels", "toes"))
+    assert np.all(out[feet, 2] >= 0.0)
+    assert np.all(np.linalg.norm(out[feet, :2] - joints[feet, :2], axis=1) > 0.005)  # moved
+    sunk = joints.copy()
+    sunk[feet, 2] = -0.01
+    out = fuse_along_rays(sunk, cam, det, ("heels", "toes"))
+    np.testing.assert_allclose(out[feet, 2], -0.01)
+    lifted = fuse_along_rays(sunk, cam, cam.project(sunk + [0, 0, 0.05]), ("heels", "toes"))
+    assert np.all(lifted[feet, 2] > 0.0)
 
 
 def test_rays_leave_points_they_cannot_trust(cameras, joints) -> None:

@@ -201,7 +201,8 @@ def fuse_along_rays(
     detected sides are matched to the written ones limb by limb (a leg with its hip, an arm with
     its shoulder), kept or exchanged, whichever lies nearer their projections. ``detection``:
     None or the detected pixels ``(19, 2)`` (further columns ignored), NaN where a point was not
-    found or not confident enough. Returns a new array; ``joints`` is not changed."""
+    found or not confident enough. No point ends below the floor (z = 0) unless it was there
+    already (then it goes no lower). Returns a new array; ``joints`` is not changed."""
     out = np.array(joints, dtype=np.float64, copy=True)
     if detection is None or not pairs or not np.isfinite(out).all():
         return out
@@ -237,6 +238,9 @@ def fuse_along_rays(
             out[list(RAY_PAIRS[name])] += steps * [0.0, 0.0, 1.0] if name in vertical else steps
             if name == "hips":
                 out[SACRUM] += steps.mean(axis=0)
+    # No point is moved below the floor (z = 0), nor lower than it was when already below.
+    floor = np.minimum(np.asarray(joints, dtype=np.float64)[:, 2], 0.0)
+    np.maximum(out[:, 2], floor, out=out[:, 2])
     return out
 
 
