@@ -92,7 +92,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--background",
         action="append",
         metavar="IMAGE",
-        help="image of the empty scene per camera (repeat); without: learned from the footage",
+        help="image of the empty scene per camera (repeat); without: estimated from the footage "
+        "(the per-pixel median of frames spread over it)",
     )
     p.add_argument(
         "--occluder",
@@ -136,7 +137,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--segmentation",
         choices=("static", "mog2", "knn"),
-        help="background subtraction mode (default: static with --background, else mog2)",
+        help="background subtraction mode (default static, against --background or the empty scene "
+        "estimated from the footage; mog2/knn learn it as the footage goes)",
     )
     p.add_argument("--threads", type=int, metavar="N", help="numba threads for the likelihood")
     p.add_argument(
@@ -272,12 +274,19 @@ def run(args: argparse.Namespace) -> int:
     occluders = None if masks is None else [None if m is None else m.max(axis=2) > 0 for m in masks]
     keypoint_files = _per_camera_keypoints(args.keypoints, cameras)
     config = build_config(args)
-    if backgrounds is None and config.segmentation.mode == "static":
-        # No image of the empty scene: learn the background from the footage.
-        config = config.model_copy(
-            update={"segmentation": config.segmentation.model_copy(update={"mode": "mog2"})}
+    estimated = backgrounds is None and config.segmentation.mode == "static"
+    if estimated:
+        # No image of the empty scene: the per-pixel median of frames spread over the footage.
+        from service.background import footage_backgrounds
+
+        log.info("no --background: estimating the empty scene from the footage")
+        backgrounds = footage_backgrounds(
+            args.videos,
+            cameras,
+            max_frames=args.max_frames,
+            tolerance=config.segmentation.threshold,
+            progress=not args.no_progress,
         )
-        log.info("no --background: learning the background from the footage (mog2)")
     if args.threads is not None:
         import numba
 
@@ -306,6 +315,7 @@ def run(args: argparse.Namespace) -> int:
         "seed": args.seed,
         "videos": [str(v) for v in args.videos],
         "backgrounds": list(args.background or []),
+        "backgrounds_estimated": estimated,
         "occluders": list(args.occluder or []),
         "keypoints": list(args.keypoints or []),
     }

@@ -1,0 +1,131 @@
+"""The empty scene of each camera estimated from recorded footage (``gaitwatch track`` without
+``--background``).
+
+One extra pass over the footage before tracking: every frame is decoded, frames spread evenly
+over it are kept (:class:`tracker.background.FrameSampler`, within a memory budget per camera)
+and their per-pixel median is the empty scene (:func:`tracker.background.median_background`).
+The tracker then subtracts it as it would a given ``--background`` image.
+
+A problem in the footage (a frame that cannot be decoded, videos of different lengths) ends the
+pass where it is found, with a warning, and the median is taken over the frames read so far:
+the tracking pass then stops at the same place with its own error, after tracking every frame
+before it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from service.video import VideoError, open_videos
+from tracker.background import (
+    DEFAULT_MAX_BYTES,
+    DEFAULT_SAMPLES,
+    FrameSampler,
+    median_background,
+)
+from tracker.camera import Camera
+
+log = logging.getLogger(__name__)
+
+#: Above this share of unsure pixels the estimate is reported as doubtful.
+UNSURE_WARNING = 0.02
+
+
+def footage_backgrounds(
+    paths: Sequence[str | Path],
+    cameras: Sequence[Camera],
+    *,
+    max_frames: int | None = None,
+    min_span_s: float = 60.0,
+    samples: int = DEFAULT_SAMPLES,
+    max_bytes: int = DEFAULT_MAX_BYTES,
+    tolerance: float = 30.0,
+    progress: bool = False,
+) -> list[np.ndarray]:
+    """Per camera, the empty scene estimated from its footage (uint8 BGR, the frames' size).
+
+    Parameters
+    ----------
+    paths, cameras
+        One video file or frame folder per camera, and its camera, as for ``gaitwatch track``.
+    max_frames : int, optional
+        The frames to be tracked: the estimate reads the first ``max_frames`` frames, or
+        ``min_span_s`` seconds of footage if that is more (someone who stands still in a short
+        excerpt would stay in its median). None reads the whole footage.
+    min_span_s : float
+        See ``max_frames``.
+    samples, max_bytes
+        :class:`~tracker.background.FrameSampler`'s capacity and memory budget per camera.
+    tolerance : float
+        Grey levels within which a frame agrees with the estimate (the segmentation threshold).
+    progress : bool
+        Show a progress bar on stderr.
+
+    Raises
+    ------
+    VideoError
+        A video that cannot be opened, or whose first frame cannot be decoded.
+    """
+    import sys
+
+    from tqdm import tqdm
+
+    videos = open_videos(paths, cameras, on_length_mismatch="stop")
+    limit = max_frames
+    if limit is not None:
+        fps = videos.sources[0].fps or cameras[0].fps or 25.0
+        limit = max(limit, math.ceil(min_span_s * fps))
+    total = videos.frame_count
+    if limit is not None:
+        total = min(total, limit) if total else limit
+    samplers = [FrameSampler(samples, max_bytes) for _ in paths]
+    with (
+        videos,
+        tqdm(
+            total=total,
+            unit="frame",
+            desc="background",
+            file=sys.stderr,
+            disable=not progress,
+            dynamic_ncols=True,
+        ) as bar,
+    ):
+        try:
+            for _, _, frames in itertools.islice(videos, limit):
+                for sampler, frame in zip(samplers, frames, strict=True):
+                    sampler.offer(frame)
+                bar.update(1)
+        except VideoError as err:
+            log.warning(
+                "reading the footage for its background stopped after %d frame(s): %s",
+                videos.frames_read,
+                err,
+            )
+    out = []
+    for path, sampler in zip(paths, samplers, strict=True):
+        est = median_background(sampler.frames, tolerance=tolerance)
+        log.info(
+            "%s: empty scene estimated from %d of %d frame(s) (every %d-th); %.1f %% of the "
+            "pixels unsure",
+            Path(path).name,
+            est.n_samples,
+            sampler.offered,
+            sampler.stride,
+            100 * est.unsure_fraction,
+        )
+        if est.unsure_fraction > UNSURE_WARNING:
+            log.warning(
+                "%s: %.0f %% of the estimated empty scene is unsure (someone or something "
+                "stayed in one place for much of the footage, or the light changed); an image "
+                "of the empty scene (--background) is better",
+                Path(path).name,
+                100 * est.unsure_fraction,
+            )
+        out.append(est.image)
+    return out

@@ -1,0 +1,192 @@
+"""The empty scene estimated from footage: the frame sampler, the median, and the pass over the
+videos that ``gaitwatch track`` makes without ``--background``."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from service.background import footage_backgrounds
+from tracker.background import FrameSampler, median_background
+from tracker.camera import save_camera
+from tracker.synthetic import side_cameras, textured_background
+
+SIZE = (96, 72)
+
+
+# -- FrameSampler ----------------------------------------------------------------------------------
+@pytest.mark.parametrize("n", [1, 5, 7, 8, 9, 31, 100, 1000])
+def test_sampler_keeps_evenly_spaced_frames_within_capacity(n: int) -> None:
+    s = FrameSampler(capacity=8, max_bytes=None)
+    for i in range(n):
+        s.offer(np.full((2, 3), i % 256, np.uint8))
+    idx = s.indices
+    assert len(idx) <= 8
+    assert len(idx) == n if n < 8 else len(idx) >= 4
+    assert idx[0] == 0 and all(i % s.stride == 0 for i in idx)
+    assert np.all(np.diff(idx) == s.stride)  # evenly spaced ...
+    assert idx[-1] + 2 * s.stride > n - 1  # ... up to the end of the stream
+    assert [int(f[0, 0]) for f in s.frames] == [i % 256 for i in idx]
+    assert s.offered == n
+
+
+def test_sampler_copies_and_checks_shapes() -> None:
+    s = FrameSampler(capacity=4, max_bytes=None)
+    f = np.zeros((2, 2), np.uint8)
+    s.offer(f)
+    f[:] = 9  # the caller's buffer reused
+    assert s.frames[0].max() == 0
+    with pytest.raises(ValueError, match="shape"):
+        s.offer(np.zeros((3, 2), np.uint8))
+
+
+def test_sampler_memory_budget_lowers_capacity() -> None:
+    frame = np.zeros((10, 10, 3), np.uint8)  # 300 bytes
+    s = FrameSampler(capacity=64, max_bytes=3000)
+    for _ in range(100):
+        s.offer(frame)
+    assert s.capacity == 10 and len(s.frames) <= 10
+    assert FrameSampler(capacity=64, max_bytes=1).capacity == 64  # lowered at the first frame
+    tiny = FrameSampler(capacity=64, max_bytes=1)
+    tiny.offer(frame)
+    assert tiny.capacity == 2
+
+
+@pytest.mark.parametrize("kw", [{"capacity": 1}, {"max_bytes": 0}])
+def test_sampler_rejects_bad_settings(kw: dict) -> None:
+    with pytest.raises(ValueError):
+        FrameSampler(**kw)
+
+
+# -- median_background ---------------------------------------------------------------------------
+def _walk_frames(bg: np.ndarray, n: int, rng: np.random.Generator, noise: float = 2.0):
+    """``n`` noisy frames of ``bg`` with a person-sized box crossing from left to right."""
+    h, w = bg.shape[:2]
+    out = []
+    for k in range(n):
+        f = bg.astype(np.float32) + rng.normal(0, noise, bg.shape)
+        x = int(round((w - 12) * k / max(1, n - 1)))
+        f[h // 4 : h // 4 + 40, x : x + 12] = (30, 200, 60)
+        out.append(np.clip(f, 0, 255).astype(np.uint8))
+    return out
+
+
+def test_median_of_a_walk_is_the_empty_scene() -> None:
+    rng = np.random.default_rng(0)
+    bg = textured_background(*SIZE, rng)
+    est = median_background(_walk_frames(bg, 21, rng))
+    diff = np.abs(est.image.astype(int) - bg.astype(int)).max(axis=2)
+    assert est.image.dtype == np.uint8 and est.image.shape == bg.shape
+    assert est.n_samples == 21
+    assert diff.max() <= 8  # the box covers each pixel in at most 3 of 21 frames
+    assert est.unsure_fraction == 0.0
+
+
+def test_median_in_bands_equals_the_whole() -> None:
+    rng = np.random.default_rng(1)
+    frames = [rng.integers(0, 256, (SIZE[1], SIZE[0], 3), dtype=np.uint8) for _ in range(6)]
+    whole = median_background(frames, band_bytes=1 << 30)
+    bands = median_background(frames, band_bytes=1)  # one row at a time
+    assert np.array_equal(whole.image, bands.image)
+    stack = np.stack(frames).astype(np.float64)
+    assert np.abs(whole.image - np.round(np.median(stack, axis=0) + 1e-9)).max() <= 1
+    grey = median_background([f[..., 0] for f in frames])
+    assert grey.image.shape == (SIZE[1], SIZE[0])
+
+
+def test_someone_who_stays_is_reported_unsure(caplog) -> None:
+    """A box that stays in one place in most frames takes over the median there: those pixels
+    are the unsure ones."""
+    rng = np.random.default_rng(2)
+    bg = textured_background(*SIZE, rng)
+    frames = []
+    for k in range(12):
+        f = bg.copy()
+        if k < 7:  # 7 of 12 frames
+            f[10:40, 20:40] = (250, 250, 250)
+        frames.append(f)
+    est = median_background(frames)
+    share = 30 * 20 / (SIZE[0] * SIZE[1])
+    assert est.unsure_fraction == pytest.approx(share, abs=0.01)
+    with caplog.at_level(logging.WARNING):
+        few = median_background(frames[:3])
+    assert few.n_samples == 3 and "3 frame(s) only" in caplog.text
+
+
+@pytest.mark.parametrize(
+    "frames, match",
+    [
+        ([], "no frames"),
+        ([np.zeros((4, 4), np.float32)], "uint8"),
+        ([np.zeros((4,), np.uint8)], "shape"),
+        ([np.zeros((4, 4), np.uint8), np.zeros((4, 5), np.uint8)], "frame 1"),
+    ],
+)
+def test_median_rejects_bad_frames(frames, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        median_background(frames)
+
+
+# -- footage_backgrounds (service) ---------------------------------------------------------------
+def _write_footage(root: Path, n: int, rng: np.random.Generator):
+    cams = side_cameras(2, image_size=SIZE, fps=20.0)
+    bgs, folders, files = [], [], []
+    for c, cam in enumerate(cams):
+        bg = textured_background(*SIZE, rng)
+        d = root / f"cam{c}"
+        d.mkdir()
+        for i, f in enumerate(_walk_frames(bg, n, rng)):
+            cv2.imwrite(str(d / f"{i:04d}.png"), f)
+        f = root / f"cam{c}.yaml"
+        save_camera(cam, f)
+        bgs.append(bg)
+        folders.append(d)
+        files.append(f)
+    return cams, bgs, folders
+
+
+def test_footage_backgrounds_per_camera(tmp_path: Path) -> None:
+    rng = np.random.default_rng(3)
+    cams, bgs, folders = _write_footage(tmp_path, 20, rng)
+    est = footage_backgrounds(folders, cams)
+    assert len(est) == 2
+    for e, bg in zip(est, bgs, strict=True):
+        assert np.abs(e.astype(int) - bg.astype(int)).max() <= 8
+    # --max-frames: at least min_span_s of footage (here the box's first 4 places in 4 frames
+    # would take over the median)
+    early = footage_backgrounds(folders, cams, max_frames=4, min_span_s=0.0)
+    assert np.abs(early[0].astype(int) - bgs[0].astype(int)).max() > 100
+    spanned = footage_backgrounds(folders, cams, max_frames=4, min_span_s=1.0)  # 20 frames
+    assert np.abs(spanned[0].astype(int) - bgs[0].astype(int)).max() <= 8
+
+
+def test_footage_backgrounds_stops_at_a_bad_frame(tmp_path: Path, caplog) -> None:
+    """A frame that cannot be read ends the pass with a warning; the frames before it give the
+    estimate (the tracking pass then raises its own error there)."""
+    rng = np.random.default_rng(4)
+    cams, bgs, folders = _write_footage(tmp_path, 20, rng)
+    (folders[1] / "0012.png").write_bytes(b"not an image")
+    with caplog.at_level(logging.WARNING):
+        est = footage_backgrounds(folders, cams)
+    assert "stopped after 12 frame(s)" in caplog.text
+    assert np.abs(est[1].astype(int) - bgs[1].astype(int)).max() <= 8
+
+
+def test_footage_backgrounds_warns_when_unsure(tmp_path: Path, caplog) -> None:
+    cams = side_cameras(1, image_size=SIZE, fps=20.0)
+    rng = np.random.default_rng(5)
+    bg = textured_background(*SIZE, rng)
+    d = tmp_path / "cam0"
+    d.mkdir()
+    for i in range(10):
+        f = bg.copy()
+        if i < 6:
+            f[5:60, 10:80] = (255, 0, 255)  # something large stays in 6 of 10 frames
+        cv2.imwrite(str(d / f"{i:04d}.png"), f)
+    with caplog.at_level(logging.WARNING):
+        footage_backgrounds([d], cams)
+    assert "unsure" in caplog.text and "--background" in caplog.text
