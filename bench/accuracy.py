@@ -452,6 +452,27 @@ def build(
     return build_scene(load_recording(name, data, spot), cfg)
 
 
+BACKGROUND_TEXT = {
+    "given": "given the empty-scene background",
+    "median": "with the empty scene estimated from each clip's own frames (--background median)",
+    "learned": "with no empty scene: OpenCV's MOG2 learns it (--background learned)",
+}
+
+
+def footage_backgrounds(frames) -> list[np.ndarray]:
+    """Per camera, the empty scene estimated from the clip's own frames as ``gaitwatch track``
+    estimates it without ``--background`` (:mod:`tracker.background`)."""
+    from tracker.background import FrameSampler, median_background
+
+    out = []
+    for c in range(len(frames[0])):
+        sampler = FrameSampler()
+        for step in frames:
+            sampler.offer(step[c])
+        out.append(median_background(sampler.frames).image)
+    return out
+
+
 def scene_frames(scene, direct: bool, tmp: Path):
     """Frames (list over time of lists over cameras, uint8 BGR), true person masks at the
     likelihood resolution (same nesting), backgrounds (BGR), cameras and truth, through the
@@ -1396,7 +1417,7 @@ Written by `bench/accuracy.py` (issue 4). Reproduce with:
         if args.detector_python
         else ""
     };
-  {settings_text}likelihood 160x120), given the empty-scene background
+  {settings_text}likelihood 160x120), {BACKGROUND_TEXT[args.background]}
   and the true stature; {_seeds_text(args)}.
   Total run time {elapsed_s / 60:.1f} min.
 - Bodies differ from the tracker's model: shape preset / clothing per recording (column
@@ -1536,6 +1557,15 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help="an oracle: give the tracker the true person masks instead of its background "
         "subtraction (how much the segmentation costs)",
     )
+    ap.add_argument(
+        "--background",
+        choices=("given", "median", "learned"),
+        default="given",
+        help="the tracker's image of the empty scene: given (the rendered empty scene, as "
+        "gaitwatch track --background), median (estimated from the clip's own frames, as "
+        "gaitwatch track without --background), learned (none: OpenCV's adaptive model learns "
+        "it as the footage goes)",
+    )
     ap.add_argument("--overlays", type=Path, help="write worst-frame overlays (PNG) here")
     ap.add_argument(
         "--json",
@@ -1630,6 +1660,10 @@ def main(argv: list[str] | None = None) -> int:
                 scene, args.direct, Path(tmpd) / f"s{si}"
             )
             body = f"{RECORDINGS[rec].shape}/{RECORDINGS[rec].clothing}"
+            if args.background == "median":
+                bgs = footage_backgrounds(frames)
+            elif args.background == "learned":
+                bgs = None
             occluders = None
             if args.occluder_masks:
                 from gaitwatch.sim.synth import occluder_mask
