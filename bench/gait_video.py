@@ -308,6 +308,14 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     ap.add_argument("--fps", type=float, default=20.0, help="the footage's frame rate (default 20)")
     ap.add_argument("--direct", action="store_true", help="track rendered frames (no codec)")
     ap.add_argument(
+        "--background",
+        choices=("given", "median", "learned"),
+        default="given",
+        help="the tracker's image of the empty scene, as for bench/accuracy.py: given (the "
+        "rendered empty scene), median (estimated from the recording's frames, as gaitwatch "
+        "track without --background), learned (OpenCV's MOG2)",
+    )
+    ap.add_argument(
         "--keep",
         type=Path,
         help="write each scene's true and tracked key points here (REC_VIEW_truth.csv, "
@@ -357,6 +365,10 @@ def main(argv: list[str] | None = None) -> int:
         scene = A.build(rec, view, args.max_frames, args.seed, args.data, fps=args.fps)
         with tempfile.TemporaryDirectory() as td:
             frames, masks, bgs, cams, truth = A.scene_frames(scene, args.direct, Path(td))
+        if args.background == "median":
+            bgs = A.footage_backgrounds(frames)
+        elif args.background == "learned":
+            bgs = None
         fps = scene.config.fps
         inner = tqdm(total=len(frames), unit="frame", file=sys.stderr, leave=False)
         video, _ = A.track(

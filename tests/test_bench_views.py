@@ -178,3 +178,23 @@ def test_on_the_spot_takes_the_travel_off(accuracy):
     ]
     assert moved[0] > 0.8 and moved[1] < 0.1 * moved[0]  # the rendered walk stays too
     assert accuracy.parse_args(["--on-the-spot"]).on_the_spot
+
+
+def test_background_given_median_or_learned(accuracy):
+    """--background: the clip's own median is near the rendered empty scene where the walker
+    crosses the view; the choice reaches the command line; learned means no image."""
+    if not (accuracy.DATA / accuracy.RECORDINGS["07_06"].path).is_file():
+        pytest.skip(f"shared recordings not found under {accuracy.DATA}")
+    assert accuracy.parse_args([]).background == "given"
+    assert accuracy.parse_args(["--background", "median"]).background == "median"
+    with pytest.raises(SystemExit):
+        accuracy.parse_args(["--background", "mog2"])
+    scene = accuracy.build("07_06", accuracy.ViewSpec.parse("side+frontal"), 20, 0, accuracy.DATA)
+    frames, _, bgs, _, _ = accuracy.scene_frames(scene, True, Path("."))
+    est = accuracy.footage_backgrounds(frames)
+    assert len(est) == 2
+    side = np.abs(est[0].astype(int) - bgs[0].astype(int)).max(axis=2)
+    assert np.mean(side > 30) < 0.01  # the side camera: the walker crosses it (0.7 %)
+    front = np.abs(est[1].astype(int) - bgs[1].astype(int)).max(axis=2)
+    assert np.mean(front > 30) > 3 * np.mean(side > 30)  # frontal: the walker stays (4.6 %)
+    assert set(accuracy.BACKGROUND_TEXT) == {"given", "median", "learned"}
