@@ -3,8 +3,11 @@
 
 One extra pass over the footage before tracking: every frame is decoded, frames spread evenly
 over it are kept (:class:`tracker.background.FrameSampler`, within a memory budget per camera)
-and their per-pixel median is the empty scene (:func:`tracker.background.median_background`).
-The tracker then subtracts it as it would a given ``--background`` image.
+and their per-pixel median is the empty scene (:func:`tracker.background.median_background`),
+one per lighting state when a light was switched during the footage
+(:class:`tracker.background.LightingStates`). The tracker then subtracts it as it would a
+given ``--background`` image, switching states with the light
+(:class:`tracker.background.LightingSwitch`).
 
 A problem in the footage (a frame that cannot be decoded, videos of different lengths) ends the
 pass where it is found, with a warning, and the median is taken over the frames read so far:
@@ -20,14 +23,12 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-
 from service.video import VideoError, open_videos
 from tracker.background import (
     DEFAULT_MAX_BYTES,
     DEFAULT_SAMPLES,
     FrameSampler,
-    median_background,
+    LightingStates,
 )
 from tracker.camera import Camera
 
@@ -35,6 +36,9 @@ log = logging.getLogger(__name__)
 
 #: Above this share of unsure pixels the estimate is reported as doubtful.
 UNSURE_WARNING = 0.02
+#: Above this share the estimate is not used (None: the tracker learns that camera's
+#: background as the footage goes, with MOG2): the light changed during the footage.
+UNSURE_LIMIT = 0.3
 
 
 def footage_backgrounds(
@@ -46,9 +50,18 @@ def footage_backgrounds(
     samples: int = DEFAULT_SAMPLES,
     max_bytes: int = DEFAULT_MAX_BYTES,
     tolerance: float = 30.0,
+    unsure_limit: float = UNSURE_LIMIT,
     progress: bool = False,
-) -> list[np.ndarray]:
-    """Per camera, the empty scene estimated from its footage (uint8 BGR, the frames' size).
+) -> list[LightingStates | None]:
+    """Per camera, the empty scene estimated from its footage under each of its lighting states
+    (:class:`tracker.background.LightingStates`: uint8 BGR images of the frames' size), or None
+    where more than ``unsure_limit`` of a state's pixels are unsure.
+
+    A lamp switched on or off during the footage splits the samples into two states by their
+    brightness, each with its own median (:class:`tracker.background.LightingSwitch` picks a
+    frame's). Where a state is still mostly unsure (a light that changed gradually and a lot,
+    a scene that changed), the tracker learns that camera's background as the footage goes
+    (MOG2), as it did before it estimated it.
 
     Parameters
     ----------
@@ -64,6 +77,8 @@ def footage_backgrounds(
         :class:`~tracker.background.FrameSampler`'s capacity and memory budget per camera.
     tolerance : float
         Grey levels within which a frame agrees with the estimate (the segmentation threshold).
+    unsure_limit : float
+        See above.
     progress : bool
         Show a progress bar on stderr.
 
@@ -109,16 +124,27 @@ def footage_backgrounds(
             )
     out = []
     for path, sampler in zip(paths, samplers, strict=True):
-        est = median_background(sampler.frames, tolerance=tolerance)
+        est = LightingStates(sampler.frames, tolerance=tolerance)
         log.info(
-            "%s: empty scene estimated from %d of %d frame(s) (every %d-th); %.1f %% of the "
-            "pixels unsure",
+            "%s: empty scene estimated from %d of %d frame(s) (every %d-th), %d lighting "
+            "state(s); %.1f %% of the pixels unsure",
             Path(path).name,
-            est.n_samples,
+            est.overall.n_samples,
             sampler.offered,
             sampler.stride,
+            len(est.states),
             100 * est.unsure_fraction,
         )
+        if est.unsure_fraction > unsure_limit:
+            log.warning(
+                "%s: %.0f %% of the estimated empty scene is unsure (the light changed during "
+                "the footage?): learning the background as the footage goes instead (mog2); an "
+                "image of the empty scene (--background) is better",
+                Path(path).name,
+                100 * est.unsure_fraction,
+            )
+            out.append(None)
+            continue
         if est.unsure_fraction > UNSURE_WARNING:
             log.warning(
                 "%s: %.0f %% of the estimated empty scene is unsure (someone or something "
@@ -127,5 +153,5 @@ def footage_backgrounds(
                 Path(path).name,
                 100 * est.unsure_fraction,
             )
-        out.append(est.image)
+        out.append(est)
     return out

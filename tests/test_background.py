@@ -11,7 +11,13 @@ import numpy as np
 import pytest
 
 from service.background import footage_backgrounds
-from tracker.background import FrameSampler, median_background
+from tracker.background import (
+    FrameSampler,
+    LightingStates,
+    LightingSwitch,
+    brightness_gain,
+    median_background,
+)
 from tracker.camera import save_camera
 from tracker.synthetic import side_cameras, textured_background
 
@@ -155,13 +161,14 @@ def test_footage_backgrounds_per_camera(tmp_path: Path) -> None:
     est = footage_backgrounds(folders, cams)
     assert len(est) == 2
     for e, bg in zip(est, bgs, strict=True):
-        assert np.abs(e.astype(int) - bg.astype(int)).max() <= 8
+        assert len(e.states) == 1 and e.first == 0
+        assert np.abs(e.overall.image.astype(int) - bg.astype(int)).max() <= 8
     # --max-frames: at least min_span_s of footage (here the box's first 4 places in 4 frames
     # would take over the median)
     early = footage_backgrounds(folders, cams, max_frames=4, min_span_s=0.0)
-    assert np.abs(early[0].astype(int) - bgs[0].astype(int)).max() > 100
+    assert np.abs(early[0].overall.image.astype(int) - bgs[0].astype(int)).max() > 100
     spanned = footage_backgrounds(folders, cams, max_frames=4, min_span_s=1.0)  # 20 frames
-    assert np.abs(spanned[0].astype(int) - bgs[0].astype(int)).max() <= 8
+    assert np.abs(spanned[0].overall.image.astype(int) - bgs[0].astype(int)).max() <= 8
 
 
 def test_footage_backgrounds_stops_at_a_bad_frame(tmp_path: Path, caplog) -> None:
@@ -173,7 +180,8 @@ def test_footage_backgrounds_stops_at_a_bad_frame(tmp_path: Path, caplog) -> Non
     with caplog.at_level(logging.WARNING):
         est = footage_backgrounds(folders, cams)
     assert "stopped after 12 frame(s)" in caplog.text
-    assert np.abs(est[1].astype(int) - bgs[1].astype(int)).max() <= 8
+    assert est[1].overall.n_samples == 12
+    assert np.abs(est[1].overall.image.astype(int) - bgs[1].astype(int)).max() <= 8
 
 
 def test_footage_backgrounds_warns_when_unsure(tmp_path: Path, caplog) -> None:
@@ -190,3 +198,86 @@ def test_footage_backgrounds_warns_when_unsure(tmp_path: Path, caplog) -> None:
     with caplog.at_level(logging.WARNING):
         footage_backgrounds([d], cams)
     assert "unsure" in caplog.text and "--background" in caplog.text
+
+
+def _lamp_footage(root: Path, rng: np.random.Generator, n: int = 24, switch: int = 10):
+    """Camera 0's light dimmed to 60 % from frame ``switch`` on (a lamp switched off)."""
+    cams, bgs, folders = _write_footage(root, n, rng)
+    for i in range(switch, n):
+        p = folders[0] / f"{i:04d}.png"
+        cv2.imwrite(str(p), (cv2.imread(str(p)) * 0.6).astype(np.uint8))
+    return cams, bgs, folders
+
+
+def test_lighting_states_split_at_a_lamp_switch(tmp_path: Path) -> None:
+    """The samples split into two states by brightness, each with its own empty scene; each
+    frame is subtracted from its own state's; the overall median, half of each, is unsure."""
+    rng = np.random.default_rng(6)
+    cams, bgs, folders = _lamp_footage(tmp_path, rng)
+    frames = [cv2.imread(str(p)) for p in sorted(folders[0].iterdir())]
+    st = LightingStates(frames)
+    assert len(st.states) == 2 and st.gains[0] < st.gains[1]
+    assert st.gains[1] / st.gains[0] == pytest.approx(1 / 0.6, rel=0.05)
+    assert st.first == 1  # the first frame: lamp on, the brighter state
+    dark = (bgs[0] * 0.6).astype(np.uint8)
+    assert np.abs(st.states[1].image.astype(int) - bgs[0].astype(int)).max() <= 8
+    assert np.abs(st.states[0].image.astype(int) - dark.astype(int)).max() <= 8
+    assert [st.state_of(f) for f in frames] == [1] * 10 + [0] * 14
+    # the overall median is unsure nearly everywhere; a state only along the box's path
+    assert st.unsure_fraction < 0.4 < 0.8 < st.overall.unsure_fraction
+    assert brightness_gain(frames[-1], frames[0]) == pytest.approx(0.6, abs=0.02)
+    # a change smaller than min_step, or groups smaller than min_samples: one state
+    assert len(LightingStates(frames, min_step=0.8).states) == 1
+    assert len(LightingStates(frames, min_samples=11).states) == 1
+    with pytest.raises(ValueError):
+        LightingStates(frames, min_step=0)
+
+
+def test_lighting_switch_follows_the_frames() -> None:
+    """The switch hands a camera its state's empty scene when the light changes, once."""
+    rng = np.random.default_rng(7)
+    bg = textured_background(*SIZE, rng)
+    frames = _walk_frames(bg, 12, rng)
+    frames = frames[:5] + [(f * 0.5).astype(np.uint8) for f in frames[5:]]
+    st = LightingStates(frames, min_samples=3)
+    assert len(st.states) == 2
+
+    class Spy:
+        calls: list = []
+
+        def set_background(self, camera, image):
+            self.calls.append((camera, image))
+
+    switch = LightingSwitch([st, None])
+    assert switch.initial()[0] is st.states[st.first].image and switch.initial()[1] is None
+    spy = Spy()
+    for f in frames:
+        switch.apply(spy, [f, f])
+    assert [c for c, _ in spy.calls] == [0] and spy.calls[0][1] is st.states[0].image
+    assert switch.changes == [(5, 0, 0)]
+
+
+def test_footage_backgrounds_follow_a_light_change(tmp_path: Path, caplog) -> None:
+    """A lamp switched off half way: camera 0 gets two lighting states; camera 1 one."""
+    rng = np.random.default_rng(8)
+    cams, bgs, folders = _lamp_footage(tmp_path, rng)
+    with caplog.at_level(logging.INFO):
+        est = footage_backgrounds(folders, cams)
+    assert len(est[0].states) == 2 and len(est[1].states) == 1
+    assert "2 lighting state(s)" in caplog.text
+
+
+def test_footage_backgrounds_give_way_when_unsure(tmp_path: Path, caplog) -> None:
+    """Where most of the scene keeps changing (here: noise over most of the image), the
+    estimate is not used: None, and the tracker learns that camera's background (MOG2)."""
+    rng = np.random.default_rng(9)
+    cams, bgs, folders = _write_footage(tmp_path, 12, rng)
+    for p in sorted(folders[0].iterdir()):
+        img = cv2.imread(str(p))
+        img[:60] = rng.integers(0, 256, img[:60].shape, dtype=np.uint8)
+        cv2.imwrite(str(p), img)
+    with caplog.at_level(logging.WARNING):
+        est = footage_backgrounds(folders, cams)
+    assert est[0] is None and "learning the background" in caplog.text
+    assert est[1] is not None
+    assert footage_backgrounds(folders, cams, unsure_limit=1.0)[0] is not None

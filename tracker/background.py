@@ -11,12 +11,15 @@ Limits: a pixel the person covers in more than half of the samples (someone who 
 in one place for more than half of the footage) takes the person's colours, and the person
 there is lost to the silhouette; :func:`median_background` reports how many pixels are unsure.
 
-Two pieces, pure computation on numpy arrays:
+Pure computation on numpy arrays:
 
 * :class:`FrameSampler` keeps frames evenly spaced over a stream of unknown length in one pass,
   within a memory budget (every other frame dropped, and the stride doubled, when full);
 * :func:`median_background` takes the per-pixel median of the samples, band by band of rows so
-  that its working memory stays a fraction of the samples'.
+  that its working memory stays a fraction of the samples';
+* :class:`LightingStates` splits the samples by overall brightness when a light was switched
+  during the footage (one median per lighting state), and :class:`LightingSwitch` hands each
+  camera's segmentation the empty scene of the current frame's state.
 """
 
 from __future__ import annotations
@@ -191,3 +194,152 @@ def median_background(
         unsure += int(np.count_nonzero(share < agree))
         counted += share.size
     return BackgroundEstimate(out, n, unsure / max(1, counted))
+
+
+def brightness_gain(frame: np.ndarray, reference: np.ndarray, step: int = 4) -> float:
+    """How much brighter ``frame`` is than ``reference`` overall: the median, over a sparse grid
+    of pixels (every ``step``-th row and column), of their brightness ratio (sum over the
+    channels). Robust to a person, who covers a minority of the pixels."""
+    f = np.asarray(frame)[::step, ::step].astype(np.float32)
+    r = np.asarray(reference)[::step, ::step].astype(np.float32)
+    if f.ndim == 3:
+        f, r = f.sum(axis=2), r.sum(axis=2)
+    return float(np.median((f + 1.0) / (r + 1.0)))
+
+
+class LightingStates:
+    """The empty scene under each of the footage's lighting states (a lamp on, then off).
+
+    The samples' brightness relative to their overall median (:func:`brightness_gain`) tells
+    the states apart: sorted, the gains are split at every gap wider than ``min_step`` (as a
+    ratio), and each group of at least ``min_samples`` samples gets its own median. A frame is
+    then subtracted from the state whose gain is nearest its own (:meth:`for_frame`). With one
+    state (no gap; slow drifts stay within one) this is :func:`median_background` of all
+    samples.
+
+    Parameters
+    ----------
+    samples : sequence of numpy.ndarray
+        The sampled frames (:class:`FrameSampler`).
+    min_step : float
+        Smallest jump of relative brightness between two states (0.15: 15 %).
+    min_samples : int
+        Fewest samples a state needs; smaller groups join their nearer neighbour.
+    tolerance, agree
+        As for :func:`median_background`.
+
+    Attributes
+    ----------
+    overall : BackgroundEstimate
+        The median of every sample.
+    gains : list of float
+        Each state's median gain relative to ``overall``, increasing.
+    states : list of BackgroundEstimate
+        Each state's estimate, in the order of ``gains``.
+    first : int
+        The state of the first sample.
+    """
+
+    def __init__(
+        self,
+        samples: Sequence[np.ndarray],
+        *,
+        min_step: float = 0.15,
+        min_samples: int = MIN_GOOD_SAMPLES,
+        tolerance: float = 30.0,
+        agree: float = 0.8,
+    ) -> None:
+        if min_step <= 0 or min_samples < 1:
+            raise ValueError("min_step must be > 0 and min_samples >= 1")
+        self.overall = median_background(samples, tolerance=tolerance, agree=agree)
+        ref = self.overall.image
+        gains = np.array([brightness_gain(s, ref) for s in samples])
+        order = np.argsort(gains)
+        groups: list[list[int]] = [[int(order[0])]]
+        for a, b in zip(order[:-1], order[1:], strict=True):
+            if gains[b] > gains[a] * (1.0 + min_step):
+                groups.append([])
+            groups[-1].append(int(b))
+        # Too small a group joins its nearer neighbour (in gain).
+        while len(groups) > 1 and min(len(g) for g in groups) < min_samples:
+            k = min(range(len(groups)), key=lambda i: len(groups[i]))
+            if k == 0:
+                j = 1
+            elif k == len(groups) - 1:
+                j = k - 1
+            else:
+                lo = gains[groups[k][0]] / gains[groups[k - 1][-1]]
+                hi = gains[groups[k + 1][0]] / gains[groups[k][-1]]
+                j = k - 1 if lo <= hi else k + 1
+            groups[j] = sorted(groups[j] + groups[k], key=lambda i: gains[i])
+            del groups[k]
+        #: The state of the first sample (the footage's first frame, for a FrameSampler's).
+        self.first = next(k for k, g in enumerate(groups) if 0 in g)
+        if len(groups) == 1:
+            self.states = [self.overall]
+            self.gains = [float(np.median(gains))]
+        else:
+            self.states = [
+                median_background([samples[i] for i in g], tolerance=tolerance, agree=agree)
+                for g in groups
+            ]
+            self.gains = [float(np.median(gains[g])) for g in groups]
+
+    @property
+    def unsure_fraction(self) -> float:
+        """The largest share of unsure pixels among the states."""
+        return max(s.unsure_fraction for s in self.states)
+
+    def state_of(self, frame: np.ndarray) -> int:
+        """Index of the state whose gain is nearest ``frame``'s (in ratio)."""
+        if len(self.states) == 1:
+            return 0
+        g = brightness_gain(frame, self.overall.image)
+        return int(np.argmin([abs(np.log(g / s)) for s in self.gains]))
+
+    def for_frame(self, frame: np.ndarray) -> np.ndarray:
+        """The empty scene to subtract from ``frame``."""
+        return self.states[self.state_of(frame)].image
+
+
+class LightingSwitch:
+    """Keeps each camera's segmentation on the empty scene of the current frame's lighting state.
+
+    Parameters
+    ----------
+    states : sequence of LightingStates or None
+        Per camera (None: a camera whose background is given or learned, left alone).
+    """
+
+    def __init__(self, states: Sequence[LightingStates | None]) -> None:
+        self.states = list(states)
+        self.current = [None if s is None else s.first for s in self.states]
+        #: Frames at which some camera changed state, with the camera and the new state.
+        self.changes: list[tuple[int, int, int]] = []
+        self._frames = 0
+
+    def initial(self) -> list[np.ndarray | None]:
+        """Per camera, the background to start from (the first frame's state), or None."""
+        return [None if s is None else s.states[s.first].image for s in self.states]
+
+    def apply(self, tracker, frames: Sequence[np.ndarray]) -> None:
+        """Before ``frames`` (one per camera) are segmented: give each camera whose lighting
+        state changed its state's empty scene (``tracker.set_background``)."""
+        index = self._frames
+        self._frames += 1
+        for c, (st, frame) in enumerate(zip(self.states, frames, strict=True)):
+            if st is None or len(st.states) == 1:
+                continue
+            k = st.state_of(frame)
+            if k != self.current[c]:
+                tracker.set_background(c, st.states[k].image)
+                self.current[c] = k
+                self.changes.append((index, c, k))
+                log.info(
+                    "camera %d: the light changed at frame %d (state %d of %d, brightness %.2f)",
+                    c,
+                    index,
+                    k + 1,
+                    len(st.states),
+                    st.gains[k],
+                )

@@ -196,6 +196,10 @@ class EnsembleTracker:
         pending = [p for p in (t.pending_from for t in self.tracks) if p is not None]
         return min(pending) if pending else None
 
+    def set_background(self, camera: int, image: np.ndarray) -> None:
+        """As :meth:`tracker.pipeline.Tracker.set_background` (the shared segmenters)."""
+        self.tracks[0].set_background(camera, image)
+
     def segment(self, frames: Sequence[np.ndarray]) -> list[Segmentation]:
         """One segmentation per camera, shared by every track (the first track's segmenters)."""
         return self.tracks[0].segment(frames)

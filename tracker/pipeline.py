@@ -583,6 +583,12 @@ class Tracker:
     def filter_name(self) -> str:
         return self.filter.name
 
+    def set_background(self, camera: int, image: np.ndarray) -> None:
+        """Subtract ``image`` (the empty scene) from camera ``camera``'s next frames instead of
+        its current background (static mode; the adaptive modes are re-seeded by it). What was
+        learned from the first background (furniture regions) stays."""
+        self.segmenters[camera].set_background(image)
+
     def segment(self, frames: Sequence[np.ndarray]) -> list[Segmentation]:
         """Segment one synchronised set of frames (one per camera)."""
         if len(frames) != len(self.segmenters):

@@ -275,18 +275,23 @@ def run(args: argparse.Namespace) -> int:
     keypoint_files = _per_camera_keypoints(args.keypoints, cameras)
     config = build_config(args)
     estimated = backgrounds is None and config.segmentation.mode == "static"
+    lighting = None
     if estimated:
         # No image of the empty scene: the per-pixel median of frames spread over the footage.
         from service.background import footage_backgrounds
+        from tracker.background import LightingSwitch
 
         log.info("no --background: estimating the empty scene from the footage")
-        backgrounds = footage_backgrounds(
-            args.videos,
-            cameras,
-            max_frames=args.max_frames,
-            tolerance=config.segmentation.threshold,
-            progress=not args.no_progress,
+        lighting = LightingSwitch(
+            footage_backgrounds(
+                args.videos,
+                cameras,
+                max_frames=args.max_frames,
+                tolerance=config.segmentation.threshold,
+                progress=not args.no_progress,
+            )
         )
+        backgrounds = lighting.initial()
     if args.threads is not None:
         import numba
 
@@ -315,7 +320,8 @@ def run(args: argparse.Namespace) -> int:
         "seed": args.seed,
         "videos": [str(v) for v in args.videos],
         "backgrounds": list(args.background or []),
-        "backgrounds_estimated": estimated,
+        # per camera: the empty scene estimated from the footage (False: given, or learned)
+        "backgrounds_estimated": [estimated and b is not None for b in backgrounds or cameras],
         "occluders": list(args.occluder or []),
         "keypoints": list(args.keypoints or []),
     }
@@ -394,12 +400,17 @@ def run(args: argparse.Namespace) -> int:
                     )
                 )
 
+        def segment(frames: list[np.ndarray]) -> list:
+            if lighting is not None:  # the empty scene of the frame's lighting state
+                lighting.apply(tracker, frames)
+            return tracker.segment(frames)
+
         try:
             # The next frames are decoded and segmented in a second thread meanwhile.
             with closing(
                 prefetched(
                     itertools.islice(videos, args.max_frames),
-                    lambda step: tracker.segment(step.frames),
+                    lambda step: segment(step.frames),
                     name="decode+segment",
                 )
             ) as steps:
