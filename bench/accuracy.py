@@ -459,17 +459,21 @@ BACKGROUND_TEXT = {
 }
 
 
-def footage_backgrounds(frames) -> list[np.ndarray]:
+def footage_backgrounds(frames) -> list:
     """Per camera, the empty scene estimated from the clip's own frames as ``gaitwatch track``
-    estimates it without ``--background`` (:mod:`tracker.background`)."""
-    from tracker.background import FrameSampler, median_background
+    estimates it without ``--background``: a :class:`tracker.background.LightingStates`, or
+    None (learned) where too much of it is unsure (:data:`service.background.UNSURE_LIMIT`).
+    ``track(..., lighting=...)`` takes the list."""
+    from service.background import UNSURE_LIMIT
+    from tracker.background import FrameSampler, LightingStates
 
     out = []
     for c in range(len(frames[0])):
         sampler = FrameSampler()
         for step in frames:
             sampler.offer(step[c])
-        out.append(median_background(sampler.frames).image)
+        est = LightingStates(sampler.frames)
+        out.append(None if est.unsure_fraction > UNSURE_LIMIT else est)
     return out
 
 
@@ -744,6 +748,7 @@ def track(
     probe=None,
     keypoints=None,
     person_masks=None,
+    lighting=None,
 ):
     """Track ``frames`` as ``gaitwatch track`` would and score nothing: (the written key
     points as a Trajectory, an info dict). ``probe(tracker, k, result)``, when given, is called
@@ -752,8 +757,15 @@ def track(
     (``Tracker.process``'s ``keypoints``), or None. ``person_masks``: per frame, per camera,
     the true person mask at the frame's size (an oracle): the tracker's background subtraction
     is replaced by it (then cleaned up, labelled and downscaled as its own foreground would be);
-    None segments the frames."""
+    None segments the frames. ``lighting``: per camera, the empty scene estimated from the
+    footage (:func:`footage_backgrounds`), which then replaces ``bgs``, or None."""
+    from tracker.background import LightingSwitch
     from tracker.ensemble import make_tracker
+
+    switch = None
+    if lighting is not None:
+        switch = LightingSwitch(lighting)
+        bgs = switch.initial()
 
     cfg = variant_config(filt, settings)
     tr = make_tracker(
@@ -784,6 +796,13 @@ def track(
                 sg.from_foreground(m)
                 for sg, m in zip(segmenters, person_masks[now[0]], strict=True)
             ]
+
+    if switch is not None:
+        plain = segment
+
+        def segment(imgs):  # the empty scene of the frame's lighting state
+            switch.apply(tr, imgs)
+            return plain(imgs)
 
     def spy(imgs):  # records the tracker's silhouettes without changing them
         segs = segment(imgs)
@@ -1660,8 +1679,9 @@ def main(argv: list[str] | None = None) -> int:
                 scene, args.direct, Path(tmpd) / f"s{si}"
             )
             body = f"{RECORDINGS[rec].shape}/{RECORDINGS[rec].clothing}"
+            lighting = None
             if args.background == "median":
-                bgs = footage_backgrounds(frames)
+                lighting = footage_backgrounds(frames)
             elif args.background == "learned":
                 bgs = None
             occluders = None
@@ -1702,6 +1722,7 @@ def main(argv: list[str] | None = None) -> int:
                     occluders,
                     keypoints=keypoints,
                     person_masks=person_masks,
+                    lighting=lighting,
                 )
                 m = evaluate(
                     truth,

@@ -365,15 +365,16 @@ def main(argv: list[str] | None = None) -> int:
         scene = A.build(rec, view, args.max_frames, args.seed, args.data, fps=args.fps)
         with tempfile.TemporaryDirectory() as td:
             frames, masks, bgs, cams, truth = A.scene_frames(scene, args.direct, Path(td))
+        lighting = None
         if args.background == "median":
-            bgs = A.footage_backgrounds(frames)
+            lighting = A.footage_backgrounds(frames)
         elif args.background == "learned":
             bgs = None
         fps = scene.config.fps
         inner = tqdm(total=len(frames), unit="frame", file=sys.stderr, leave=False)
         video, _ = A.track(
             frames, masks, bgs, cams, scene.body.stature_m, fps, args.filter,
-            args.tracker_seed, inner, settings=settings,
+            args.tracker_seed, inner, settings=settings, lighting=lighting,
         )  # fmt: skip
         inner.close()
         if args.keep:

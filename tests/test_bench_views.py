@@ -191,8 +191,9 @@ def test_background_given_median_or_learned(accuracy):
         accuracy.parse_args(["--background", "mog2"])
     scene = accuracy.build("07_06", accuracy.ViewSpec.parse("side+frontal"), 20, 0, accuracy.DATA)
     frames, _, bgs, _, _ = accuracy.scene_frames(scene, True, Path("."))
-    est = accuracy.footage_backgrounds(frames)
-    assert len(est) == 2
+    states = accuracy.footage_backgrounds(frames)
+    assert len(states) == 2 and all(len(s.states) == 1 for s in states)  # steady light
+    est = [s.overall.image for s in states]
     side = np.abs(est[0].astype(int) - bgs[0].astype(int)).max(axis=2)
     assert np.mean(side > 30) < 0.01  # the side camera: the walker crosses it (0.7 %)
     front = np.abs(est[1].astype(int) - bgs[1].astype(int)).max(axis=2)
