@@ -459,6 +459,20 @@ BACKGROUND_TEXT = {
 }
 
 
+def add_background_argument(ap: argparse.ArgumentParser) -> None:
+    """The ``--background`` option of the benchmarks (``args.background`` is one of
+    :data:`BACKGROUND_TEXT`)."""
+    ap.add_argument(
+        "--background",
+        choices=tuple(BACKGROUND_TEXT),
+        default="given",
+        help="the tracker's image of the empty scene: given (the rendered empty scene, as "
+        "gaitwatch track --background), median (estimated from the clip's own frames, as "
+        "gaitwatch track without --background), learned (none: OpenCV's adaptive model learns "
+        "it as the footage goes)",
+    )
+
+
 def footage_backgrounds(frames) -> list:
     """Per camera, the empty scene estimated from the clip's own frames as ``gaitwatch track``
     estimates it without ``--background``: a :class:`tracker.background.LightingStates`, or
@@ -1576,15 +1590,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help="an oracle: give the tracker the true person masks instead of its background "
         "subtraction (how much the segmentation costs)",
     )
-    ap.add_argument(
-        "--background",
-        choices=("given", "median", "learned"),
-        default="given",
-        help="the tracker's image of the empty scene: given (the rendered empty scene, as "
-        "gaitwatch track --background), median (estimated from the clip's own frames, as "
-        "gaitwatch track without --background), learned (none: OpenCV's adaptive model learns "
-        "it as the footage goes)",
-    )
+    add_background_argument(ap)
     ap.add_argument("--overlays", type=Path, help="write worst-frame overlays (PNG) here")
     ap.add_argument(
         "--json",

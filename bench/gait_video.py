@@ -307,14 +307,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     ap.add_argument("--fps", type=float, default=20.0, help="the footage's frame rate (default 20)")
     ap.add_argument("--direct", action="store_true", help="track rendered frames (no codec)")
-    ap.add_argument(
-        "--background",
-        choices=("given", "median", "learned"),
-        default="given",
-        help="the tracker's image of the empty scene, as for bench/accuracy.py: given (the "
-        "rendered empty scene), median (estimated from the recording's frames, as gaitwatch "
-        "track without --background), learned (OpenCV's MOG2)",
-    )
+    A.add_background_argument(ap)
     ap.add_argument(
         "--keep",
         type=Path,
