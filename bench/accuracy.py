@@ -476,18 +476,17 @@ def add_background_argument(ap: argparse.ArgumentParser) -> None:
 def footage_backgrounds(frames) -> list:
     """Per camera, the empty scene estimated from the clip's own frames as ``gaitwatch track``
     estimates it without ``--background``: a :class:`tracker.background.LightingStates`, or
-    None (learned) where too much of it is unsure (:data:`service.background.UNSURE_LIMIT`).
+    None (learned) where too much of it is unsure (:func:`service.background.sampled_states`).
     ``track(..., lighting=...)`` takes the list."""
-    from service.background import UNSURE_LIMIT
-    from tracker.background import FrameSampler, LightingStates
+    from service.background import sampled_states
+    from tracker.background import FrameSampler
 
     out = []
     for c in range(len(frames[0])):
         sampler = FrameSampler()
         for step in frames:
             sampler.offer(step[c])
-        est = LightingStates(sampler.frames)
-        out.append(None if est.unsure_fraction > UNSURE_LIMIT else est)
+        out.append(sampled_states(sampler, f"camera {c}"))
     return out
 
 

@@ -122,36 +122,48 @@ def footage_backgrounds(
                 videos.frames_read,
                 err,
             )
-    out = []
-    for path, sampler in zip(paths, samplers, strict=True):
-        est = LightingStates(sampler.frames, tolerance=tolerance)
-        log.info(
-            "%s: empty scene estimated from %d of %d frame(s) (every %d-th), %d lighting "
-            "state(s); %.1f %% of the pixels unsure",
-            Path(path).name,
-            est.overall.n_samples,
-            sampler.offered,
-            sampler.stride,
-            len(est.states),
+    return [
+        sampled_states(s, Path(p).name, tolerance=tolerance, unsure_limit=unsure_limit)
+        for p, s in zip(paths, samplers, strict=True)
+    ]
+
+
+def sampled_states(
+    sampler: FrameSampler,
+    name: str,
+    *,
+    tolerance: float = 30.0,
+    unsure_limit: float = UNSURE_LIMIT,
+) -> LightingStates | None:
+    """One camera's empty scene from the frames ``sampler`` kept (logged under ``name``):
+    its :class:`~tracker.background.LightingStates`, or None where a state is unsure on more
+    than ``unsure_limit`` of its pixels (the tracker then learns that camera's background)."""
+    est = LightingStates(sampler.frames, tolerance=tolerance)
+    log.info(
+        "%s: empty scene estimated from %d of %d frame(s) (every %d-th), %d lighting "
+        "state(s); %.1f %% of the pixels unsure",
+        name,
+        est.overall.n_samples,
+        sampler.offered,
+        sampler.stride,
+        len(est.states),
+        100 * est.unsure_fraction,
+    )
+    if est.unsure_fraction > unsure_limit:
+        log.warning(
+            "%s: %.0f %% of the estimated empty scene is unsure (the light changed during "
+            "the footage?): learning the background as the footage goes instead (mog2); an "
+            "image of the empty scene (--background) is better",
+            name,
             100 * est.unsure_fraction,
         )
-        if est.unsure_fraction > unsure_limit:
-            log.warning(
-                "%s: %.0f %% of the estimated empty scene is unsure (the light changed during "
-                "the footage?): learning the background as the footage goes instead (mog2); an "
-                "image of the empty scene (--background) is better",
-                Path(path).name,
-                100 * est.unsure_fraction,
-            )
-            out.append(None)
-            continue
-        if est.unsure_fraction > UNSURE_WARNING:
-            log.warning(
-                "%s: %.0f %% of the estimated empty scene is unsure (someone or something "
-                "stayed in one place for much of the footage, or the light changed); an image "
-                "of the empty scene (--background) is better",
-                Path(path).name,
-                100 * est.unsure_fraction,
-            )
-        out.append(est)
-    return out
+        return None
+    if est.unsure_fraction > UNSURE_WARNING:
+        log.warning(
+            "%s: %.0f %% of the estimated empty scene is unsure (someone or something "
+            "stayed in one place for much of the footage, or the light changed); an image "
+            "of the empty scene (--background) is better",
+            name,
+            100 * est.unsure_fraction,
+        )
+    return est
