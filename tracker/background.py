@@ -7,16 +7,20 @@ averaged out. This is for recorded footage, where every frame can be seen before
 starts (``gaitwatch track`` without ``--background``); OpenCV's adaptive models (segmentation
 modes ``mog2``/``knn``) learn as the footage goes and miss the person while they learn.
 
-Limits: a pixel the person covers in more than half of the samples (someone who stands or sits
-in one place for more than half of the footage) takes the person's colours, and the person
-there is lost to the silhouette; :func:`median_background` reports how many pixels are unsure.
+A pixel the person covers in more than half of the samples (someone who walks straight towards
+the camera, turns on the spot or sits) would take the person's colours, and the person there
+would be lost to the silhouette. So the 2D pose detector finds the person in each sample
+(:func:`people_in_samples`) and the median is taken over the samples where nobody covers the
+pixel; a pixel covered in nearly all of them is filled in from around it.
+:func:`median_background` reports how many pixels are unsure and how many were filled in.
 
-Pure computation on numpy arrays:
+Pure computation on numpy arrays (OpenCV for the inpainting; the detector is given):
 
 * :class:`FrameSampler` keeps frames evenly spaced over a stream of unknown length in one pass,
   within a memory budget (every other frame dropped, and the stride doubled, when full);
 * :func:`median_background` takes the per-pixel median of the samples, band by band of rows so
-  that its working memory stays a fraction of the samples';
+  that its working memory stays a fraction of the samples', leaving out the pixels of each
+  sample's :class:`PersonMask` (:func:`people_in_samples`);
 * :class:`LightingStates` splits the samples by overall brightness when a light was switched
   during the footage (one median per lighting state), and :class:`LightingSwitch` hands each
   camera's segmentation the empty scene of the current frame's state.
@@ -28,6 +32,7 @@ import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 log = logging.getLogger(__name__)
@@ -116,12 +121,48 @@ class BackgroundEstimate:
     unsure_fraction : float
         Share of the pixels (every other row and column counted) where fewer than ``agree``
         of the samples lie within ``tolerance`` of the median (the scene changed there, or
-        something stayed in one place for a good part of the footage).
+        something stayed in one place for a good part of the footage). With people masked,
+        the share is of the samples where the pixel was not masked, and a pixel filled in
+        counts as unsure.
+    filled_fraction : float
+        Share of the pixels that a person covered in nearly every sample (fewer than
+        ``min_valid`` samples left): no sample shows the scene there, and the image is filled
+        in from around (OpenCV's inpainting).
     """
 
     image: np.ndarray
     n_samples: int
     unsure_fraction: float
+    filled_fraction: float = 0.0
+
+
+@dataclass(frozen=True)
+class PersonMask:
+    """Pixels of one sampled frame that a person covers, to be left out of the median.
+
+    Attributes
+    ----------
+    x, y : int
+        The frame's column and row of ``mask``'s top-left pixel.
+    mask : numpy.ndarray
+        bool (h, w): True where the person is.
+    """
+
+    x: int
+    y: int
+    mask: np.ndarray
+
+    def rows(self, r0: int, r1: int, width: int) -> np.ndarray | None:
+        """The mask over the frame's rows ``r0:r1`` (all ``width`` columns), or None when it
+        covers none of them."""
+        h, w = self.mask.shape
+        a, b = max(r0, self.y), min(r1, self.y + h)
+        c, d = max(0, self.x), min(width, self.x + w)
+        if a >= b or c >= d:
+            return None
+        out = np.zeros((r1 - r0, width), dtype=bool)
+        out[a - r0 : b - r0, c:d] = self.mask[a - self.y : b - self.y, c - self.x : d - self.x]
+        return out if out.any() else None
 
 
 def median_background(
@@ -130,6 +171,8 @@ def median_background(
     tolerance: float = 30.0,
     agree: float = 0.8,
     band_bytes: int = 64 << 20,
+    masks: Sequence[PersonMask | None] | None = None,
+    min_valid: int | None = None,
 ) -> BackgroundEstimate:
     """The per-pixel median of ``samples`` (uint8 frames of one camera, same shape).
 
@@ -148,11 +191,19 @@ def median_background(
     band_bytes : int
         Rows are taken in bands of about this many bytes of samples, to bound the working
         memory.
+    masks : sequence of PersonMask or None, optional
+        Per sample, the pixels a person covers there (:func:`people_in_samples`), or None:
+        each pixel's median is then taken over the samples where nobody covers it, so that
+        someone who stays in one part of the view for most of the footage does not stay in
+        its empty scene.
+    min_valid : int, optional
+        With ``masks``: a pixel left with fewer samples than this (default 3, or 5 % of the
+        samples if more) is filled in from around it (OpenCV's Telea inpainting).
 
     Raises
     ------
     ValueError
-        No samples, shapes that differ, or not uint8.
+        No samples, shapes that differ, not uint8, or not one mask (or None) per sample.
     """
     if len(samples) == 0:
         raise ValueError("no frames to estimate the background from")
@@ -165,16 +216,23 @@ def median_background(
         if np.shape(s) != first.shape:
             raise ValueError(f"frame {k} has shape {np.shape(s)}, the first has {first.shape}")
     n = len(samples)
+    if masks is not None and len(masks) != n:
+        raise ValueError(f"{len(masks)} person masks for {n} frames")
+    if masks is not None and all(m is None for m in masks):
+        masks = None
+    if min_valid is None:
+        min_valid = max(3, int(np.ceil(0.05 * n)))
     if n < MIN_GOOD_SAMPLES:
         log.warning(
             "background estimated from %d frame(s) only: a person in view in about half of "
             "them stays in it",
             n,
         )
-    h = first.shape[0]
+    h, w = first.shape[:2]
     row_bytes = max(1, first[0].nbytes * n)
     band = max(1, int(band_bytes // row_bytes))
     out = np.empty_like(first)
+    holes = np.zeros((h, w), dtype=bool)
     unsure = counted = 0
     lo, hi = (n - 1) // 2, n // 2
     for r0 in range(0, h, band):
@@ -183,6 +241,9 @@ def median_background(
         part = np.partition(stack, (lo, hi), axis=0)
         med = part[lo] if lo == hi else ((part[lo].astype(np.uint16) + part[hi] + 1) // 2)
         med = med.astype(np.uint8)
+        excluded = None if masks is None else _excluded(masks, r0, r1, w)
+        if excluded is not None:
+            holes[r0:r1] = _masked_median(stack, excluded, med) < min_valid
         out[r0:r1] = med
         # The unsure share on every other row and column: a quarter of the work.
         rows = np.arange(r0 + (r0 % 2), r1, 2) - r0
@@ -190,10 +251,65 @@ def median_background(
         diff = np.abs(sub - med[rows, ::2].astype(np.int16))
         if diff.ndim == 4:
             diff = diff.max(axis=3)
-        share = np.count_nonzero(diff <= tolerance, axis=0) / n
+        close = diff <= tolerance
+        if excluded is None:
+            share = np.count_nonzero(close, axis=0) / n
+        else:
+            seen = ~excluded[:, rows, ::2]
+            n_seen = np.count_nonzero(seen, axis=0)
+            share = np.count_nonzero(close & seen, axis=0) / np.maximum(n_seen, 1)
+            share[n_seen < min_valid] = 0.0
         unsure += int(np.count_nonzero(share < agree))
         counted += share.size
-    return BackgroundEstimate(out, n, unsure / max(1, counted))
+    filled = float(holes.mean())
+    if filled > 0:
+        # Grown a little: beside the pixels the person covers in every sample, the few
+        # samples left are the least clean.
+        r = max(1, round(0.004 * max(h, w)))
+        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+        grown = cv2.dilate(holes.astype(np.uint8), kernel)
+        out = cv2.inpaint(out, grown, 2 * r + 1, cv2.INPAINT_TELEA)
+    return BackgroundEstimate(out, n, unsure / max(1, counted), filled)
+
+
+def _excluded(
+    masks: Sequence[PersonMask | None], r0: int, r1: int, width: int
+) -> np.ndarray | None:
+    """bool (n, r1 - r0, width): True where sample k's person covers the pixel; None when no
+    mask covers these rows."""
+    rows = [None if m is None else m.rows(r0, r1, width) for m in masks]
+    if all(r is None for r in rows):
+        return None
+    out = np.zeros((len(masks), r1 - r0, width), dtype=bool)
+    for k, r in enumerate(rows):
+        if r is not None:
+            out[k] = r
+    return out
+
+
+def _masked_median(stack: np.ndarray, excluded: np.ndarray, med: np.ndarray) -> np.ndarray:
+    """Replace ``med`` (rows, w[, c]), in place, by the median of the samples of ``stack``
+    (n, rows, w[, c]) not ``excluded`` (n, rows, w) wherever a sample is excluded; returns the
+    number of samples left per pixel (rows, w)."""
+    n = stack.shape[0]
+    valid = n - np.count_nonzero(excluded, axis=0)
+    ys, xs = np.nonzero(valid < n)
+    if len(ys) == 0:
+        return valid
+    sub = stack[:, ys, xs]  # (n, K[, c]), a copy
+    # Excluded samples sort after every other (a 255 among the rest is the same value).
+    sub[excluded[:, ys, xs]] = 255
+    sub.sort(axis=0)
+    m = valid[ys, xs]
+    lo = np.maximum((m - 1) // 2, 0)[None]
+    hi = np.minimum(m // 2, n - 1)[None]
+    if sub.ndim == 3:
+        lo = np.repeat(lo[..., None], sub.shape[2], axis=2)
+        hi = np.repeat(hi[..., None], sub.shape[2], axis=2)
+    a = np.take_along_axis(sub, lo, axis=0)[0].astype(np.uint16)
+    b = np.take_along_axis(sub, hi, axis=0)[0]
+    med[ys, xs] = ((a + b + 1) // 2).astype(np.uint8)
+    return valid
 
 
 def brightness_gain(frame: np.ndarray, reference: np.ndarray, step: int = 4) -> float:
@@ -225,7 +341,7 @@ class LightingStates:
         Smallest jump of relative brightness between two states (0.15: 15 %).
     min_samples : int
         Fewest samples a state needs; smaller groups join their nearer neighbour.
-    tolerance, agree
+    tolerance, agree, masks
         As for :func:`median_background`.
 
     Attributes
@@ -238,6 +354,8 @@ class LightingStates:
         Each state's estimate, in the order of ``gains``.
     first : int
         The state of the first sample.
+    sample_states : list of int
+        The state of each sample.
     """
 
     def __init__(
@@ -248,10 +366,11 @@ class LightingStates:
         min_samples: int = MIN_GOOD_SAMPLES,
         tolerance: float = 30.0,
         agree: float = 0.8,
+        masks: Sequence[PersonMask | None] | None = None,
     ) -> None:
         if min_step <= 0 or min_samples < 1:
             raise ValueError("min_step must be > 0 and min_samples >= 1")
-        self.overall = median_background(samples, tolerance=tolerance, agree=agree)
+        self.overall = median_background(samples, tolerance=tolerance, agree=agree, masks=masks)
         ref = self.overall.image
         gains = np.array([brightness_gain(s, ref) for s in samples])
         order = np.argsort(gains)
@@ -275,12 +394,21 @@ class LightingStates:
             del groups[k]
         #: The state of the first sample (the footage's first frame, for a FrameSampler's).
         self.first = next(k for k, g in enumerate(groups) if 0 in g)
+        self.sample_states = [0] * len(samples)
+        for k, g in enumerate(groups):
+            for i in g:
+                self.sample_states[i] = k
         if len(groups) == 1:
             self.states = [self.overall]
             self.gains = [float(np.median(gains))]
         else:
             self.states = [
-                median_background([samples[i] for i in g], tolerance=tolerance, agree=agree)
+                median_background(
+                    [samples[i] for i in g],
+                    tolerance=tolerance,
+                    agree=agree,
+                    masks=None if masks is None else [masks[i] for i in g],
+                )
                 for g in groups
             ]
             self.gains = [float(np.median(gains[g])) for g in groups]
@@ -289,6 +417,11 @@ class LightingStates:
     def unsure_fraction(self) -> float:
         """The largest share of unsure pixels among the states."""
         return max(s.unsure_fraction for s in self.states)
+
+    @property
+    def filled_fraction(self) -> float:
+        """The largest share of filled-in pixels among the states."""
+        return max(s.filled_fraction for s in self.states)
 
     def state_of(self, frame: np.ndarray) -> int:
         """Index of the state whose gain is nearest ``frame``'s (in ratio)."""
@@ -300,6 +433,77 @@ class LightingStates:
     def for_frame(self, frame: np.ndarray) -> np.ndarray:
         """The empty scene to subtract from ``frame``."""
         return self.states[self.state_of(frame)].image
+
+
+def people_in_samples(
+    samples: Sequence[np.ndarray],
+    backgrounds: Sequence[np.ndarray],
+    detector,
+    config=None,
+) -> list[PersonMask | None]:
+    """Per sample, the pixels of the person in it, for :func:`median_background`'s ``masks``.
+
+    Where to look comes from a first estimate: each sample is segmented against its own
+    ``backgrounds[k]`` (the plain median of its lighting state), and the 2D pose detector
+    (:meth:`tracker.detector2d.PoseDetector.person_mask`) gives the person's pixels around the
+    foreground's box. The detector does not need the background to be right: where the first
+    median still holds the person (someone who stayed in one part of the view), the foreground
+    is the part of them that moved, and the detector finds the whole person around it.
+
+    Parameters
+    ----------
+    samples : sequence of numpy.ndarray
+        uint8 BGR frames (H, W, 3).
+    backgrounds : sequence of numpy.ndarray
+        Per sample, the empty scene to segment it against (the same image may repeat).
+    detector : tracker.detector2d.PoseDetector
+        The detector (its model loaded on first use).
+    config : tracker.segmentation.SegmentationConfig, optional
+        The segmentation's settings (the defaults when None); always the ``static`` mode.
+
+    Returns
+    -------
+    list of PersonMask or None
+        None for a sample without foreground. Where something moved but the detector saw
+        nobody (a person too small, half out of view, or not a person), the square crop around
+        the foreground's box is left out instead.
+    """
+    from tracker.detector2d import silhouette_box
+    from tracker.segmentation import SegmentationConfig, Segmenter
+
+    if len(samples) != len(backgrounds):
+        raise ValueError(f"{len(backgrounds)} backgrounds for {len(samples)} frames")
+    config = (config or SegmentationConfig()).model_copy(update={"mode": "static"})
+    segmenters: dict[int, Segmenter] = {}
+    out: list[PersonMask | None] = []
+    for frame, bg in zip(samples, backgrounds, strict=True):
+        seg = segmenters.get(id(bg))
+        if seg is None:
+            seg = segmenters[id(bg)] = Segmenter(config, bg)
+        s = seg.apply(frame)
+        if s.empty:
+            out.append(None)
+            continue
+        box = silhouette_box(s.blobs)
+        found = detector.person_mask(frame, box)
+        if found is None:  # something moved, the detector saw nobody: leave out its crop
+            found = _square_around(box, getattr(detector, "crop_scale", 1.3), frame.shape)
+        out.append(PersonMask(*found))
+    return out
+
+
+def _square_around(
+    box: tuple[int, int, int, int], scale: float, shape: tuple[int, ...]
+) -> tuple[int, int, np.ndarray]:
+    """``(x, y, mask)``: the square ``scale`` times the box's longer side around its centre,
+    within the frame."""
+    x, y, w, h = box
+    side = scale * max(w, h)
+    x0 = int(np.clip(np.floor(x + 0.5 * w - 0.5 * side), 0, shape[1]))
+    y0 = int(np.clip(np.floor(y + 0.5 * h - 0.5 * side), 0, shape[0]))
+    x1 = int(np.clip(np.ceil(x + 0.5 * w + 0.5 * side), 0, shape[1]))
+    y1 = int(np.clip(np.ceil(y + 0.5 * h + 0.5 * side), 0, shape[0]))
+    return x0, y0, np.ones((y1 - y0, x1 - x0), dtype=bool)
 
 
 class LightingSwitch:

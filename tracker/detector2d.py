@@ -34,6 +34,9 @@ need NumPy < 2 and an OpenCV build of their own.
   averaged, their sides matched part by part, legs and arms each on its own
   (:meth:`PoseDetector._with_mirrored`): the network's errors on an image and on its mirror
   are partly independent.
+* **The person's pixels** (:meth:`PoseDetector.person_mask`): the model's own segmentation
+  output, warped back into the frame, for the empty scene estimated from the footage
+  (:func:`tracker.background.people_in_samples`), which leaves the person out of its median.
 * **Cost**: one inference per camera and frame (two with ``mirror``), about 17-22 ms each on
   one core of this machine.
 
@@ -242,6 +245,7 @@ class PoseDetector:
         self.model_path = Path(model_path) if model_path is not None else MODEL_PATH
         self._interp = None
         self._io: tuple[int, int, int, int | None] | None = None
+        self._seg_index: int | None = None  # the person segmentation output (Identity_2)
         #: Per camera index the crop followed from the last frame (:meth:`detect_frames`).
         self._follow: dict[int, tuple[float, float, float, float]] = {}
 
@@ -294,6 +298,9 @@ class PoseDetector:
                     "with or to score by (refine = false and heatmaps = false run without)"
                 )
             heat = int(hm["index"])
+        seg = outs.get("Identity_2")
+        if seg is not None and tuple(seg["shape"][1:3]) == (INPUT_SIZE, INPUT_SIZE):
+            self._seg_index = int(seg["index"])
         self._interp = interp
         self._io = (int(inp["index"]), int(marks["index"]), int(flag["index"]), heat)
 
@@ -427,6 +434,66 @@ class PoseDetector:
         out[both, 2] = np.minimum(kp[both, 2], other[both, 2])
         return out
 
+    def person_mask(
+        self,
+        image_bgr: np.ndarray,
+        box: tuple[float, float, float, float],
+        *,
+        threshold: float = 0.3,
+        grow: float = 0.04,
+    ) -> tuple[int, int, np.ndarray] | None:
+        """The pixels of the person in ``box`` ``(x, y, width, height)``, from the model's
+        segmentation output (a person probability per input pixel), or None when the model
+        sees nobody there.
+
+        The model runs on the crop around the box (:func:`crop_box`), then, as MediaPipe looks
+        a second time, on the crop its alignment points give (:func:`alignment_crop`: centred
+        on the person, turned with them). Pixels of probability ``threshold`` or more are the
+        person's, grown by ``grow`` times the crop's side (the mask's edge, hair, a loose
+        sleeve). Returns ``(x, y, mask)``: the bool mask of a box of the frame whose top-left
+        pixel is ``(x, y)``. Raises :class:`DetectorUnavailableError` when the model has no
+        segmentation output."""
+        if box[2] <= 0 or box[3] <= 0:
+            return None
+        self.load()
+        if self._seg_index is None:
+            raise DetectorUnavailableError(f"{self.model_path}: no person segmentation output")
+        crop = (*crop_box(box, self.crop_scale), 0.0)
+        uv, _, presence = self.landmarks(image_bgr, crop)
+        if presence < self.min_presence:
+            return None
+        second = alignment_crop(uv)
+        if second[2] > 1.0:
+            _, _, presence2 = self.landmarks(image_bgr, second)
+            if presence2 >= self.min_presence:
+                crop = second
+            else:  # the second look lost the person: the first crop's output
+                self.landmarks(image_bgr, crop)
+        prob = _sigmoid(self._interp.get_tensor(self._seg_index)[0, :, :, 0]).astype(np.float32)
+        # The crop's corners in the frame give the box the mask is warped into.
+        to_input = crop_transform(*crop)
+        to_frame = cv2.invertAffineTransform(to_input)
+        corners = np.array([[0, 0], [INPUT_SIZE, 0], [0, INPUT_SIZE], [INPUT_SIZE, INPUT_SIZE]])
+        uvc = corners @ to_frame[:, :2].T + to_frame[:, 2]
+        h, w = image_bgr.shape[:2]
+        pad = int(np.ceil(grow * crop[2])) + 1
+        x0 = int(np.clip(np.floor(uvc[:, 0].min()) - pad, 0, w))
+        y0 = int(np.clip(np.floor(uvc[:, 1].min()) - pad, 0, h))
+        x1 = int(np.clip(np.ceil(uvc[:, 0].max()) + pad + 1, 0, w))
+        y1 = int(np.clip(np.ceil(uvc[:, 1].max()) + pad + 1, 0, h))
+        if x1 <= x0 or y1 <= y0:
+            return None
+        warp = to_frame.copy()
+        warp[:, 2] -= (x0, y0)
+        back = cv2.warpAffine(
+            prob, warp, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR, borderValue=0.0
+        )
+        mask = (back >= threshold).astype(np.uint8)
+        k = 2 * int(round(grow * crop[2])) + 1
+        if k > 1:
+            mask = cv2.dilate(mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
+        return x0, y0, mask.astype(bool)
+
     def reset(self) -> None:
         """Forget the crops followed from frame to frame (:meth:`detect_frames`)."""
         self._follow = {}
@@ -508,3 +575,18 @@ def make_detector(config, n_cameras: int = 1) -> PoseDetector | None:
     )
     det.load()
     return det
+
+
+def person_detector(config) -> PoseDetector | None:
+    """The built-in detector with a :class:`tracker.config.KeypointConfig`'s crop, presence and
+    threads, to find the person in frames sampled for an estimated empty scene
+    (:func:`tracker.background.people_in_samples`): None when its ``detector`` is ``"none"``
+    (the model is loaded on first use)."""
+    if config.detector == "none":
+        return None
+    return PoseDetector(
+        crop_scale=config.crop_scale,
+        min_presence=config.min_presence,
+        threads=config.threads,
+        refine=False,
+    )
