@@ -473,20 +473,32 @@ def add_background_argument(ap: argparse.ArgumentParser) -> None:
     )
 
 
-def footage_backgrounds(frames) -> list:
+def footage_backgrounds(frames, settings: dict | None = None) -> list:
     """Per camera, the empty scene estimated from the clip's own frames as ``gaitwatch track``
     estimates it without ``--background``: a :class:`tracker.background.LightingStates`, or
-    None (learned) where too much of it is unsure (:func:`service.background.sampled_states`).
-    ``track(..., lighting=...)`` takes the list."""
+    None (learned) where too much of it is unsure (:func:`service.background.sampled_states`;
+    the person left out with the built-in detector unless ``settings``, a settings file's
+    fields, turn it off). ``track(..., lighting=...)`` takes the list."""
     from service.background import sampled_states
     from tracker.background import FrameSampler
+    from tracker.detector2d import person_detector
 
+    cfg = variant_config("ipf", settings)
+    detector = person_detector(cfg.keypoints)
     out = []
     for c in range(len(frames[0])):
         sampler = FrameSampler()
         for step in frames:
             sampler.offer(step[c])
-        out.append(sampled_states(sampler, f"camera {c}"))
+        out.append(
+            sampled_states(
+                sampler,
+                f"camera {c}",
+                tolerance=cfg.segmentation.threshold,
+                detector=detector,
+                segmentation=cfg.segmentation,
+            )
+        )
     return out
 
 
@@ -1686,7 +1698,7 @@ def main(argv: list[str] | None = None) -> int:
             body = f"{RECORDINGS[rec].shape}/{RECORDINGS[rec].clothing}"
             lighting = None
             if args.background == "median":
-                lighting = footage_backgrounds(frames)
+                lighting = footage_backgrounds(frames, settings)
             elif args.background == "learned":
                 bgs = None
             occluders = None

@@ -360,7 +360,7 @@ def main(argv: list[str] | None = None) -> int:
             frames, masks, bgs, cams, truth = A.scene_frames(scene, args.direct, Path(td))
         lighting = None
         if args.background == "median":
-            lighting = A.footage_backgrounds(frames)
+            lighting = A.footage_backgrounds(frames, settings)
         elif args.background == "learned":
             bgs = None
         fps = scene.config.fps

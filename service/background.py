@@ -5,8 +5,11 @@ One extra pass over the footage before tracking: every frame is decoded, frames 
 over it are kept (:class:`tracker.background.FrameSampler`, within a memory budget per camera)
 and their per-pixel median is the empty scene (:func:`tracker.background.median_background`),
 one per lighting state when a light was switched during the footage
-(:class:`tracker.background.LightingStates`). The tracker then subtracts it as it would a
-given ``--background`` image, switching states with the light
+(:class:`tracker.background.LightingStates`). With the 2D pose detector, the person is then
+found in each sample (:func:`tracker.background.people_in_samples`) and left out of the
+median, which is taken again: someone who stays in one part of the view for most of the
+footage no longer stays in its empty scene. The tracker then subtracts it as it would a given
+``--background`` image, switching states with the light
 (:class:`tracker.background.LightingSwitch`).
 
 A problem in the footage (a frame that cannot be decoded, videos of different lengths) ends the
@@ -29,6 +32,7 @@ from tracker.background import (
     DEFAULT_SAMPLES,
     FrameSampler,
     LightingStates,
+    people_in_samples,
 )
 from tracker.camera import Camera
 
@@ -52,6 +56,8 @@ def footage_backgrounds(
     tolerance: float = 30.0,
     unsure_limit: float = UNSURE_LIMIT,
     progress: bool = False,
+    detector=None,
+    segmentation=None,
 ) -> list[LightingStates | None]:
     """Per camera, the empty scene estimated from its footage under each of its lighting states
     (:class:`tracker.background.LightingStates`: uint8 BGR images of the frames' size), or None
@@ -81,6 +87,11 @@ def footage_backgrounds(
         See above.
     progress : bool
         Show a progress bar on stderr.
+    detector : tracker.detector2d.PoseDetector, optional
+        Finds the person in each sample, to leave them out of the median
+        (:func:`sampled_states`); None takes the plain median.
+    segmentation : tracker.segmentation.SegmentationConfig, optional
+        The tracker's segmentation settings, to find the person's box in each sample.
 
     Raises
     ------
@@ -123,7 +134,14 @@ def footage_backgrounds(
                 err,
             )
     return [
-        sampled_states(s, Path(p).name, tolerance=tolerance, unsure_limit=unsure_limit)
+        sampled_states(
+            s,
+            Path(p).name,
+            tolerance=tolerance,
+            unsure_limit=unsure_limit,
+            detector=detector,
+            segmentation=segmentation,
+        )
         for p, s in zip(paths, samplers, strict=True)
     ]
 
@@ -134,20 +152,44 @@ def sampled_states(
     *,
     tolerance: float = 30.0,
     unsure_limit: float = UNSURE_LIMIT,
+    detector=None,
+    segmentation=None,
 ) -> LightingStates | None:
     """One camera's empty scene from the frames ``sampler`` kept (logged under ``name``):
     its :class:`~tracker.background.LightingStates`, or None where a state is unsure on more
-    than ``unsure_limit`` of its pixels (the tracker then learns that camera's background)."""
-    est = LightingStates(sampler.frames, tolerance=tolerance)
+    than ``unsure_limit`` of its pixels (the tracker then learns that camera's background).
+
+    With a ``detector`` (:class:`tracker.detector2d.PoseDetector`), the person found in each
+    sample against the plain median (:func:`tracker.background.people_in_samples`, with the
+    ``segmentation`` settings) is left out of a second median. A detector that cannot run
+    leaves the plain median, with a warning."""
+    from tracker.detector2d import DetectorUnavailableError
+
+    frames = sampler.frames
+    est = LightingStates(frames, tolerance=tolerance)
+    masked = 0
+    if detector is not None:
+        try:
+            masks = people_in_samples(
+                frames, [est.states[k].image for k in est.sample_states], detector, segmentation
+            )
+        except DetectorUnavailableError as err:
+            log.warning("%s: the person is not left out of the empty scene: %s", name, err)
+        else:
+            masked = sum(m is not None for m in masks)
+            if masked:
+                est = LightingStates(frames, tolerance=tolerance, masks=masks)
     log.info(
         "%s: empty scene estimated from %d of %d frame(s) (every %d-th), %d lighting "
-        "state(s); %.1f %% of the pixels unsure",
+        "state(s), the person left out of %d; %.1f %% of the pixels unsure, %.1f %% filled in",
         name,
         est.overall.n_samples,
         sampler.offered,
         sampler.stride,
         len(est.states),
+        masked,
         100 * est.unsure_fraction,
+        100 * est.filled_fraction,
     )
     if est.unsure_fraction > unsure_limit:
         log.warning(

@@ -93,7 +93,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="append",
         metavar="IMAGE",
         help="image of the empty scene per camera (repeat); without: estimated from the footage "
-        "(the per-pixel median of frames spread over it)",
+        "(the per-pixel median of frames spread over it, the person found by the 2D detector "
+        "left out)",
     )
     p.add_argument(
         "--occluder",
@@ -277,9 +278,11 @@ def run(args: argparse.Namespace) -> int:
     estimated = backgrounds is None and config.segmentation.mode == "static"
     lighting = None
     if estimated:
-        # No image of the empty scene: the per-pixel median of frames spread over the footage.
+        # No image of the empty scene: the per-pixel median of frames spread over the footage,
+        # the person the built-in detector finds in each left out (unless --detector none).
         from service.background import footage_backgrounds
         from tracker.background import LightingSwitch
+        from tracker.detector2d import person_detector
 
         log.info("no --background: estimating the empty scene from the footage")
         lighting = LightingSwitch(
@@ -289,6 +292,8 @@ def run(args: argparse.Namespace) -> int:
                 max_frames=args.max_frames,
                 tolerance=config.segmentation.threshold,
                 progress=not args.no_progress,
+                detector=person_detector(config.keypoints),
+                segmentation=config.segmentation,
             )
         )
         backgrounds = lighting.initial()
