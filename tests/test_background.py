@@ -282,6 +282,53 @@ def test_people_in_samples_look_where_something_moved() -> None:
         people_in_samples(frames, [bg], det)
 
 
+def test_people_in_samples_find_a_second_person() -> None:
+    """Two people, far apart: the detector, looking at the box of all the foreground, finds one;
+    the other's blob lies outside them, so it looks again there. A blob where it then finds
+    nobody (a ghost) stays in; a speck under a quarter of the largest blob's area gets no look
+    of its own."""
+    rng = np.random.default_rng(17)
+    bg = textured_background(*SIZE, rng)
+    colours = [(30, 200, 60), (200, 30, 200)]
+    frames = []
+    for k in range(4):
+        f = bg.copy()
+        f[10:50, 5 + 3 * k : 17 + 3 * k] = colours[0]
+        f[15:55, 75 - 3 * k : 87 - 3 * k] = colours[1]
+        f[62:70, 20:28] = (255, 255, 255)  # a speck (64 pixels)
+        f[20:60, 40:52] = (128, 128, 128)  # no person: a ghost, where the median held one
+        frames.append(f)
+
+    class ByColour:
+        """Finds the first colour's pixels present in the box (a detector sees one person)."""
+
+        crop_scale = 1.3
+        looks = 0
+
+        def person_mask(self, frame, box):
+            self.looks += 1
+            x, y, w, h = box
+            crop = frame[y : y + h, x : x + w]
+            for c in colours:
+                hit = np.all(crop == c, axis=2)
+                if hit.any():
+                    return x, y, hit
+            return None
+
+    det = ByColour()
+    masks = people_in_samples(frames, [bg] * 4, det, min_share=0.25)
+    assert det.looks == 12  # three per frame: one person, the other, the ghost; not the speck
+    for f, m in zip(frames, masks, strict=True):
+        full = m.rows(0, SIZE[1], SIZE[0])
+        for c in colours:
+            person = np.all(f == c, axis=2)
+            assert full[person].all()
+        assert not full[62:70, 20:28].any() and not full[20:60, 40:52].any()
+    one = people_in_samples(frames, [bg] * 4, ByColour(), max_people=1)
+    assert all(not np.all(f == colours[1], axis=2)[m.rows(0, SIZE[1], SIZE[0])].any()
+               for f, m in zip(frames, one, strict=True))  # fmt: skip
+
+
 # -- footage_backgrounds (service) ---------------------------------------------------------------
 def _write_footage(root: Path, n: int, rng: np.random.Generator):
     cams = side_cameras(2, image_size=SIZE, fps=20.0)

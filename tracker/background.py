@@ -440,15 +440,21 @@ def people_in_samples(
     backgrounds: Sequence[np.ndarray],
     detector,
     config=None,
+    *,
+    max_people: int = 3,
+    min_share: float = 0.25,
 ) -> list[PersonMask | None]:
-    """Per sample, the pixels of the person in it, for :func:`median_background`'s ``masks``.
+    """Per sample, the pixels of the people in it, for :func:`median_background`'s ``masks``.
 
     Where to look comes from a first estimate: each sample is segmented against its own
     ``backgrounds[k]`` (the plain median of its lighting state), and the 2D pose detector
     (:meth:`tracker.detector2d.PoseDetector.person_mask`) gives the person's pixels around the
     foreground's box. The detector does not need the background to be right: where the first
     median still holds the person (someone who stayed in one part of the view), the foreground
-    is the part of them that moved, and the detector finds the whole person around it.
+    is the part of them that moved, and the detector finds the whole person around it. The
+    detector looks first at the box of all the foreground; then, while a blob of at least
+    ``min_share`` of the largest one's area lies outside the people found so far, at the box of
+    those blobs (up to ``max_people`` looks per sample, until one finds nobody).
 
     Parameters
     ----------
@@ -464,9 +470,9 @@ def people_in_samples(
     Returns
     -------
     list of PersonMask or None
-        None for a sample without foreground. Where something moved but the detector saw
-        nobody (a person too small, half out of view, or not a person), the square crop around
-        the foreground's box is left out instead.
+        None for a sample without foreground. Where something moved but the detector's first
+        look saw nobody (a person too small, half out of view, or not a person), the square
+        crop around the foreground's box is left out instead.
     """
     from tracker.detector2d import silhouette_box
     from tracker.segmentation import SegmentationConfig, Segmenter
@@ -484,12 +490,46 @@ def people_in_samples(
         if s.empty:
             out.append(None)
             continue
-        box = silhouette_box(s.blobs)
-        found = detector.person_mask(frame, box)
-        if found is None:  # something moved, the detector saw nobody: leave out its crop
-            found = _square_around(box, getattr(detector, "crop_scale", 1.3), frame.shape)
-        out.append(PersonMask(*found))
+        # The box of every blob first; then, while a person-sized blob lies outside the
+        # people found so far (a second person: a visitor, a carer), the box of those left.
+        found: list[tuple[int, int, np.ndarray]] = []
+        pending = list(s.blobs)
+        least = min_share * s.blobs[0].area
+        while pending and len(found) < max_people:
+            box = silhouette_box(pending)
+            person = detector.person_mask(frame, box)
+            if person is None:
+                if not found:  # something moved, the detector saw nobody: leave out its crop
+                    scale = getattr(detector, "crop_scale", 1.3)
+                    found.append(_square_around(box, scale, frame.shape))
+                # Later, nobody is more likely where the first median still holds the person
+                # (a "ghost", whose pixels show the scene in this sample): left in.
+                break
+            found.append(person)
+            pending = [b for b in pending if b.area >= least and not _covers(person, b.centroid)]
+        out.append(_union(found))
     return out
+
+
+def _covers(person: tuple[int, int, np.ndarray], point: tuple[float, float]) -> bool:
+    """Whether the pixel at ``point`` ``(x, y)`` lies in ``(x, y, mask)``."""
+    x, y, m = person
+    c, r = int(round(point[0])) - x, int(round(point[1])) - y
+    return bool(0 <= r < m.shape[0] and 0 <= c < m.shape[1] and m[r, c])
+
+
+def _union(people: list[tuple[int, int, np.ndarray]]) -> PersonMask:
+    """One :class:`PersonMask` over the box of every ``(x, y, mask)``."""
+    if len(people) == 1:
+        return PersonMask(*people[0])
+    x0 = min(x for x, _, _ in people)
+    y0 = min(y for _, y, _ in people)
+    x1 = max(x + m.shape[1] for x, _, m in people)
+    y1 = max(y + m.shape[0] for _, y, m in people)
+    out = np.zeros((y1 - y0, x1 - x0), dtype=bool)
+    for x, y, m in people:
+        out[y - y0 : y - y0 + m.shape[0], x - x0 : x - x0 + m.shape[1]] |= m
+    return PersonMask(x0, y0, out)
 
 
 def _square_around(
