@@ -462,14 +462,14 @@ class PoseDetector:
         uv, _, presence = self.landmarks(image_bgr, crop)
         if presence < self.min_presence:
             return None
+        logits = self._interp.get_tensor(self._seg_index)[0, :, :, 0].copy()
         second = alignment_crop(uv)
         if second[2] > 1.0:
             _, _, presence2 = self.landmarks(image_bgr, second)
-            if presence2 >= self.min_presence:
+            if presence2 >= self.min_presence:  # else the first crop's output stays
                 crop = second
-            else:  # the second look lost the person: the first crop's output
-                self.landmarks(image_bgr, crop)
-        prob = _sigmoid(self._interp.get_tensor(self._seg_index)[0, :, :, 0]).astype(np.float32)
+                logits = self._interp.get_tensor(self._seg_index)[0, :, :, 0]
+        prob = _sigmoid(logits).astype(np.float32)
         # The crop's corners in the frame give the box the mask is warped into.
         to_input = crop_transform(*crop)
         to_frame = cv2.invertAffineTransform(to_input)
