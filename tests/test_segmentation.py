@@ -326,3 +326,104 @@ def test_from_foreground_rejects_a_mask_of_another_size(rng: np.random.Generator
     adaptive = Segmenter(SegmentationConfig(mode="mog2"))
     with pytest.raises(SegmentationError, match="no frame size yet"):
         adaptive.from_foreground(np.zeros((H, W), bool))
+
+
+def _dark_trousers_frame(
+    bg: np.ndarray, person: np.ndarray, legs: np.ndarray, rng: np.random.Generator
+) -> np.ndarray:
+    """``_frame`` with the legs in grey trousers: the scene behind them darkened to 0.6 of its
+    brightness, its colour kept (what the shadow test takes for a shadow), and the floor
+    shadow."""
+    f = _frame(bg, person, rng, shadow=True).astype(np.float32)
+    f[legs] = bg[legs].astype(np.float32) * 0.6 + rng.normal(0, 2.0, (int(legs.sum()), 3))
+    return np.clip(f, 0, 255).astype(np.uint8)
+
+
+def _legs(person: np.ndarray, top: int = 40) -> np.ndarray:
+    legs = person.copy()
+    legs[: top + 104] = False
+    return legs
+
+
+def _floor_shadow() -> np.ndarray:
+    sh = np.zeros((H, W), np.uint8)
+    cv2.ellipse(sh, (210, 215), (60, 16), 0, 0, 360, 1, -1)
+    return sh.astype(bool)
+
+
+@pytest.mark.parametrize("mode", ["static", "mog2"])
+def test_the_segmentation_keeps_what_the_shadow_test_removed(
+    rng: np.random.Generator, mode: str
+) -> None:
+    """The raw foreground and the shadow pixels travel with the result; none without a shadow
+    test, none after keep_blobs."""
+    bg = _background(rng)
+    person = _person_mask()
+    frame = _frame(bg, person, rng, shadow=True)
+    seg = Segmenter(SegmentationConfig(mode=mode), bg)
+    out = seg.apply(frame)
+    assert out.foreground is not None and out.shadow is not None
+    assert out.foreground.shape == out.shadow.shape == (H, W)
+    assert not (out.foreground & out.shadow).any()
+    assert np.array_equal(out.foreground, seg.raw_foreground(frame)) or mode == "mog2"
+    floor = _floor_shadow() & ~person
+    assert out.shadow[floor].mean() > 0.8  # the floor shadow is the test's
+    assert out.shadow[person].mean() < 0.02  # the purple clothes are not
+    off = Segmenter(SegmentationConfig(mode=mode, shadow_suppression=False), bg).apply(frame)
+    assert off.shadow is None and off.foreground is not None
+    kept = keep_blobs(out, out.blobs)
+    assert kept.foreground is None and kept.shadow is None
+
+
+@pytest.mark.parametrize("scale", [1.0, 0.5])
+def test_shadow_pixels_are_given_back_under_the_person(
+    rng: np.random.Generator, scale: float
+) -> None:
+    """Grey trousers are lost to the shadow test; given a person mask over the body, they come
+    back, and the floor's shadow outside the mask stays out."""
+    bg = _background(rng)
+    person, legs = _person_mask(), _legs(_person_mask())
+    frame = _dark_trousers_frame(bg, person, legs, rng)
+    sg = Segmenter(SegmentationConfig(work_scale=scale), bg)
+    seg = sg.apply(frame)
+    assert seg.mask_full[legs].mean() < 0.2  # the trousers taken for a shadow
+    assert _iou(seg.mask_full, person) < 0.75
+    # The person mask, as a detector gives it: the body grown by two pixels, in its box.
+    grown = cv2.dilate(person.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+    ys, xs = np.nonzero(grown)
+    x0, y0 = int(xs.min()), int(ys.min())
+    box = grown[y0 : ys.max() + 1, x0 : xs.max() + 1]
+    back = sg.with_shadow_given_back(seg, (x0, y0, box))
+    assert back is not seg
+    assert _iou(back.mask_full, person) > 0.85
+    assert back.mask_full[legs].mean() > 0.9
+    assert back.mask_full[_floor_shadow() & ~grown].mean() < 0.02  # the floor's stays out
+    assert len(back.blobs) == 1
+    assert np.array_equal(back.mask, downscale_mask(back.mask_full, (160, 120)))
+    # The pixels given back are no longer shadow; the floor's still are.
+    assert back.shadow is not None and not (back.shadow & back.foreground).any()
+    assert back.shadow.sum() < seg.shadow.sum()
+    # Nothing under the mask, or the mask outside the frame: the segmentation itself.
+    far = np.ones((20, 20), bool)
+    assert sg.with_shadow_given_back(seg, (0, 0, far)) is seg
+    assert sg.with_shadow_given_back(seg, (W + 5, 10, far)) is seg
+    assert sg.with_shadow_given_back(keep_blobs(seg, seg.blobs), (x0, y0, box)).shadow is None
+
+
+def test_shadow_pixels_given_back_by_a_mask_past_the_frame_edge(rng: np.random.Generator) -> None:
+    """A person mask running past the frame's edges is clipped to it."""
+    bg = _background(rng)
+    person, legs = _person_mask(cx=150), _legs(_person_mask(cx=150))
+    frame = _dark_trousers_frame(bg, person, legs, rng)
+    sg = Segmenter(SegmentationConfig(), bg)
+    seg = sg.apply(frame)
+    whole = np.ones((H + 40, W + 40), bool)  # everything, from (-20, -20)
+    back = sg.with_shadow_given_back(seg, (-20, -20, whole))
+    assert back.mask_full[legs].mean() > 0.9
+    assert back.mask_full[_floor_shadow() & ~person].mean() > 0.8  # the floor's came back too
+
+
+def test_from_foreground_rejects_a_shadow_of_another_size(rng: np.random.Generator) -> None:
+    seg = Segmenter(SegmentationConfig(), _background(rng))
+    with pytest.raises(SegmentationError, match="shadow mask 100x100"):
+        seg.from_foreground(np.zeros((H, W), bool), shadow=np.zeros((100, 100), bool))

@@ -1409,6 +1409,34 @@ class KeypointConfig(_Model):
             "one camera it cost accuracy)",
         ),
     ] = 2
+    shadow_given_back: Annotated[
+        bool,
+        Field(
+            description="Give back to the silhouette the pixels the shadow test removed where "
+            "the built-in detector's person segmentation covers them (dark or grey clothes "
+            "taken for a shadow), with at least shadow_given_back_min_cameras cameras; the "
+            "detector's first inference's output, no inference added "
+            '(docs/tracker.md, "Shadow pixels given back")',
+        ),
+    ] = True
+    shadow_given_back_min_cameras: Annotated[
+        int,
+        Field(
+            ge=1,
+            le=16,
+            description="Give the shadow pixels back only with this many cameras or more "
+            "(through one camera it gained nothing)",
+        ),
+    ] = 2
+    person_threshold: Annotated[
+        float,
+        Field(
+            gt=0,
+            lt=1,
+            description="A pixel is the person's when the detector's person probability is "
+            "at least this (shadow_given_back)",
+        ),
+    ] = 0.5
     beta: Annotated[
         float, Field(gt=0, le=20, description="Exponent of the key-point factor (its strength)")
     ] = 1.0

@@ -46,6 +46,7 @@ interpreter is not shared between threads.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -54,6 +55,8 @@ import numpy as np
 
 from gaitwatch.conventions import KP, N_KEYPOINTS, SIDES, SIDES_EXCHANGED
 from tracker.keypoints2d import KeypointHeatmaps
+
+log = logging.getLogger(__name__)
 
 #: The model file shipped with the package.
 MODEL_PATH = Path(__file__).parent / "models" / "pose_landmark_full.tflite"
@@ -214,6 +217,9 @@ class PoseDetector:
         Also keep each detection's heatmaps (:attr:`last_heatmaps`, for the key-point cue's
         ``score = "heatmap"``): the first inference's, as probabilities, in the key points'
         order.
+    people : bool
+        Also keep each detection's person segmentation (:attr:`last_people`): the first
+        inference's, no inference added.
     """
 
     def __init__(
@@ -225,6 +231,7 @@ class PoseDetector:
         mirror: bool = False,
         refine: bool = True,
         heatmaps: bool = False,
+        people: bool = False,
     ) -> None:
         if not crop_scale > 0:
             raise ValueError(f"crop_scale must be > 0, not {crop_scale}")
@@ -238,9 +245,13 @@ class PoseDetector:
         self.mirror = bool(mirror)
         self.refine = bool(refine)
         self.heatmaps = bool(heatmaps)
+        self.people = bool(people)
         #: Per camera of the last :meth:`detect_frames` the detection's heatmaps or None (with
         #: ``heatmaps``; else None).
         self.last_heatmaps: list[KeypointHeatmaps | None] | None = None
+        #: Per camera of the last :meth:`detect_frames` the detection's person segmentation
+        #: ``(crop, logits)`` for :meth:`person_pixels`, or None (with ``people``; else None).
+        self.last_people: list[tuple[tuple, np.ndarray] | None] | None = None
         self._heat_raw: np.ndarray | None = None  # the last inference's heatmap logits
         self.model_path = Path(model_path) if model_path is not None else MODEL_PATH
         self._interp = None
@@ -303,6 +314,12 @@ class PoseDetector:
             self._seg_index = int(seg["index"])
         self._interp = interp
         self._io = (int(inp["index"]), int(marks["index"]), int(flag["index"]), heat)
+
+    @property
+    def has_people(self) -> bool:
+        """Whether the loaded model has the person segmentation output (False before
+        :meth:`load`)."""
+        return self._seg_index is not None
 
     def __deepcopy__(self, memo: dict) -> PoseDetector:
         """Copies share the loaded interpreter (a model is read-only; the tracker's backward
@@ -379,7 +396,9 @@ class PoseDetector:
         return None if det is None else det[0]
 
     def _detect(self, image_bgr, box, crop):
-        """:meth:`detect` and the crop the model's alignment points give for the next frame."""
+        """:meth:`detect`, the crop the model's alignment points give for the next frame, the
+        heatmaps (with ``heatmaps``) and the person segmentation ``(crop, logits)`` (with
+        ``people`` and a model that has it), all of the first inference."""
         if box is None or box[2] <= 0 or box[3] <= 0:
             return None
         if crop is None:
@@ -389,9 +408,12 @@ class PoseDetector:
             return None
         kp = self._keypoints(uv, vis)
         heat = self._heatmaps(crop) if self.heatmaps else None
+        person = None
+        if self.people and self._seg_index is not None:
+            person = (crop, self._interp.get_tensor(self._seg_index)[0, :, :, 0].copy())
         if self.mirror:
             kp = self._with_mirrored(kp, image_bgr, crop)
-        return kp, alignment_crop(uv), heat
+        return kp, alignment_crop(uv), heat, person
 
     def _heatmaps(self, crop) -> KeypointHeatmaps | None:
         """The last inference's heatmaps as :class:`KeypointHeatmaps` of the frame's pixels
@@ -469,13 +491,28 @@ class PoseDetector:
             if presence2 >= self.min_presence:  # else the first crop's output stays
                 crop = second
                 logits = self._interp.get_tensor(self._seg_index)[0, :, :, 0]
-        prob = _sigmoid(logits).astype(np.float32)
+        return self.person_pixels(crop, logits, image_bgr.shape, threshold=threshold, grow=grow)
+
+    @staticmethod
+    def person_pixels(
+        crop: tuple[float, float, float, float],
+        logits: np.ndarray,
+        shape: tuple[int, ...],
+        *,
+        threshold: float = 0.5,
+        grow: float = 0.0,
+    ) -> tuple[int, int, np.ndarray] | None:
+        """The model's person segmentation ``logits`` (one per input pixel) on ``crop`` warped
+        into a frame of ``shape`` (rows, columns, ...): the pixels of probability
+        ``threshold`` or more, grown by ``grow`` times the crop's side, as ``(x, y, mask)``
+        (:meth:`person_mask`); None when the crop lies outside the frame."""
+        prob = _sigmoid(np.asarray(logits)).astype(np.float32)
         # The crop's corners in the frame give the box the mask is warped into.
         to_input = crop_transform(*crop)
         to_frame = cv2.invertAffineTransform(to_input)
         corners = np.array([[0, 0], [INPUT_SIZE, 0], [0, INPUT_SIZE], [INPUT_SIZE, INPUT_SIZE]])
         uvc = corners @ to_frame[:, :2].T + to_frame[:, 2]
-        h, w = image_bgr.shape[:2]
+        h, w = shape[:2]
         pad = int(np.ceil(grow * crop[2])) + 1
         x0 = int(np.clip(np.floor(uvc[:, 0].min()) - pad, 0, w))
         y0 = int(np.clip(np.floor(uvc[:, 1].min()) - pad, 0, h))
@@ -517,11 +554,14 @@ class PoseDetector:
         follow = self._follow
         out: list[np.ndarray | None] = []
         heats: list[KeypointHeatmaps | None] = []
+        people: list[tuple[tuple, np.ndarray] | None] = []
         self.last_heatmaps = heats if self.heatmaps else None
+        self.last_people = people if self.people else None
         for k, (frame, seg) in enumerate(zip(frames, segs, strict=True)):
             box = None if seg.empty else silhouette_box(seg.blobs)
             crop = follow.pop(k, None)
             heats.append(None)
+            people.append(None)
             if box is None:
                 out.append(None)
                 continue
@@ -533,7 +573,7 @@ class PoseDetector:
             if found is None:
                 out.append(None)
                 continue
-            det, follow[k], heat = found
+            det, follow[k], heat, people[k] = found
             if sizes is not None:
                 w, h = sizes[k]
                 fh, fw = frame.shape[:2]
@@ -561,8 +601,9 @@ def _inside(crop: tuple[float, float, float, float], box: tuple) -> bool:
 def make_detector(config, n_cameras: int = 1) -> PoseDetector | None:
     """The detector of a :class:`tracker.config.KeypointConfig` for a tracker with
     ``n_cameras`` cameras (None when the cue is off or its ``detector`` is ``"none"``; the
-    mirrored inference with ``mirror`` and at least ``mirror_min_cameras`` cameras). Raises
-    :class:`DetectorUnavailableError` when it cannot run."""
+    mirrored inference with ``mirror`` and at least ``mirror_min_cameras`` cameras; the person
+    segmentation kept with ``shadow_given_back`` and at least ``shadow_given_back_min_cameras``
+    cameras). Raises :class:`DetectorUnavailableError` when it cannot run."""
     if not config.enabled or config.detector == "none":
         return None
     det = PoseDetector(
@@ -572,8 +613,14 @@ def make_detector(config, n_cameras: int = 1) -> PoseDetector | None:
         refine=config.heatmap_refine,
         mirror=config.mirror and n_cameras >= config.mirror_min_cameras,
         heatmaps=config.score_for(n_cameras) == "heatmap",
+        people=config.shadow_given_back and n_cameras >= config.shadow_given_back_min_cameras,
     )
     det.load()
+    if det.people and not det.has_people:
+        log.warning(
+            "%s has no person segmentation output: the shadow pixels are not given back",
+            det.model_path,
+        )
     return det
 
 

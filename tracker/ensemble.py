@@ -230,11 +230,16 @@ class EnsembleTracker:
         heatmaps: Sequence | None = None,
     ) -> FrameResult:
         """As :meth:`tracker.pipeline.Tracker.process_segmentations`, every track in turn (the
-        built-in detector runs once, on the silhouettes before each track chooses its blobs)."""
+        built-in detector runs once, on the silhouettes before each track chooses its blobs;
+        the shadow pixels under the person it found are given back then,
+        :meth:`tracker.pipeline.Tracker.give_back_shadows`)."""
         if keypoints is None and frames is not None and not all(s.empty for s in segs):
-            keypoints = self.tracks[0].detect_keypoints(frames, segs)
-            det = self.tracks[0].detector
+            first = self.tracks[0]
+            keypoints = first.detect_keypoints(frames, segs)
+            det = first.detector
             heatmaps = None if det is None else det.last_heatmaps
+            if det is not None and first.keypoint_cue is not None:
+                segs = first.give_back_shadows(segs)
         results = [
             t.process_segmentations(frame_index, time_s, segs, frames, keypoints, heatmaps)
             for t in self.tracks

@@ -720,6 +720,29 @@ class Tracker:
         sizes = [(cam.width, cam.height) for cam in self.cameras]
         return self.detector.detect_frames(frames, segs, sizes)
 
+    def give_back_shadows(self, segs: Sequence[Segmentation]) -> list[Segmentation]:
+        """``segs`` with the pixels their shadow test removed given back where the person
+        segmentation of the built-in detector's last :meth:`detect_keypoints` covers them
+        (``config.keypoints.shadow_given_back``, :meth:`tracker.segmentation.Segmenter.
+        with_shadow_given_back`): a camera's own segmentation where the detector found nobody
+        or kept no person segmentation."""
+        det = self.detector
+        people = None if det is None else det.last_people
+        if people is None:
+            return list(segs)
+        if len(people) != len(segs):
+            raise ValueError(f"{len(segs)} segmentations for {len(people)} detections")
+        threshold = self.config.keypoints.person_threshold
+        out: list[Segmentation] = []
+        for sg, seg, found in zip(self.segmenters, segs, people, strict=True):
+            if found is None or seg.shadow is None or seg.foreground is None:
+                out.append(seg)
+                continue
+            crop, logits = found
+            person = det.person_pixels(crop, logits, seg.labels.shape, threshold=threshold)
+            out.append(seg if person is None else sg.with_shadow_given_back(seg, person))
+        return out
+
     def _cut(self, segs: Sequence[Segmentation]) -> list[bool]:
         """Per camera, whether furniture (the occluded pixels, given or learned) or the image's
         lower edge may cut the person's legs off (:func:`_legs_cut`; False without a
@@ -779,11 +802,26 @@ class Tracker:
         notes: list[str] = []
         if all(s.empty for s in segs):
             return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW)
-        segs = [self._choose_blobs(i, s, notes) for i, s in enumerate(segs)]
+        chosen = [self._choose_blobs(i, s, notes) for i, s in enumerate(segs)]
+        if sum(int(s.mask.sum()) for s in chosen) < self.config.min_silhouette_px:
+            return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW + " (silhouette too small)")
+        detected = (
+            self.keypoint_cue is not None
+            and keypoints is None
+            and frames is not None
+            and self.detector is not None
+        )
+        if detected:
+            keypoints = self.detect_keypoints(frames, chosen)
+            heatmaps = self.detector.last_heatmaps
+        if detected and self.detector.last_people is not None:
+            given_back = self.give_back_shadows(segs)
+            if any(g is not s for g, s in zip(given_back, segs, strict=True)):
+                notes.clear()
+                chosen = [self._choose_blobs(i, s, notes) for i, s in enumerate(given_back)]
+        segs = chosen
         masks = [s.mask for s in segs]
         self._legs_cut_now = self._cut(segs)
-        if sum(int(m.sum()) for m in masks) < self.config.min_silhouette_px:
-            return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW + " (silhouette too small)")
         if self.colour is not None:  # colour cue: this frame's colours
             if frames is None:
                 self.colour.clear_frame()
@@ -796,9 +834,6 @@ class Tracker:
             else:
                 self.edge_cue.set_frame(frames, [s.mask_full for s in segs])
         if self.keypoint_cue is not None:  # 2D key-point cue: this frame's detections
-            if keypoints is None and frames is not None and self.detector is not None:
-                keypoints = self.detect_keypoints(frames, segs)
-                heatmaps = self.detector.last_heatmaps
             legs = self._legs_seen(keypoints, segs, self._legs_cut_now)
             self.keypoint_cue.set_frame(legs, heatmaps)
         if any(o is not None for o in self.occlusion):

@@ -27,7 +27,10 @@ foreground when at least half of the full-resolution pixels it covers are).
 The result, :class:`Segmentation`, carries the full-resolution mask, the low-resolution mask the
 likelihood uses, and the blobs (area, bounding box, centroid), so that a tracker can follow the
 one blob consistent with its track (:func:`keep_blobs`) and detect that nobody is in view
-(``empty``).
+(``empty``). It also keeps the foreground before the clean-up and the pixels the shadow test
+removed, so that pixels found elsewhere to be the person's (a 2D pose detector's person
+segmentation) can be given back (:meth:`Segmenter.with_shadow_given_back`): the shadow test also
+takes dark or grey clothes for a shadow.
 """
 
 from __future__ import annotations
@@ -253,12 +256,21 @@ class Segmentation:
         int32 (H, W): 0 for background, ``blob.label`` for each blob's pixels.
     empty : bool
         True when no blob reaches the minimum area (nobody in view).
+    foreground : numpy.ndarray or None
+        bool: the foreground before the clean-up, shadows removed, at the working resolution
+        (or at the frame's, when given so to :meth:`Segmenter.from_foreground`); None after
+        :func:`keep_blobs`.
+    shadow : numpy.ndarray or None
+        bool, as ``foreground``: the pixels the shadow test removed from it; None without a
+        shadow test.
     """
 
     mask_full: np.ndarray
     mask: np.ndarray
     blobs: list[Blob]
     labels: np.ndarray
+    foreground: np.ndarray | None = field(default=None, repr=False)
+    shadow: np.ndarray | None = field(default=None, repr=False)
     empty: bool = field(init=False)
 
     def __post_init__(self) -> None:
@@ -512,15 +524,20 @@ class Segmenter:
 
         bool (h, w) at the working resolution (the frame's size times ``work_scale``).
         """
+        return self._foreground(frame)[0]
+
+    def _foreground(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """:meth:`raw_foreground` and the pixels the shadow test removed (None without one)."""
         img = _as_bgr(frame, "frame")
         self._check_shape(img)
         if self._model is not None:
             out = self._model.apply(self._prepare(img), learningRate=self._rate)
             # 255 foreground, 127 shadow (only when shadow detection is on), 0 background.
-            return out > 200
+            shadow = out == 127 if self.config.shadow_suppression else None
+            return out > 200, shadow
         return self._static_foreground(img)
 
-    def _static_foreground(self, img: np.ndarray) -> np.ndarray:
+    def _static_foreground(self, img: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         c = self.config
         bgb = self._bg_blur
         assert bgb is not None and self._bg_bright is not None and self._bg_chroma is not None
@@ -536,7 +553,9 @@ class Segmenter:
         b, g, r = cv2.split(d)
         diff = cv2.max(cv2.max(b, g), r)
         fg = diff > c.threshold
+        removed = None
         if c.shadow_suppression:
+            removed = np.zeros_like(fg)
             # Only the candidate pixels need the shadow test.
             idx = np.flatnonzero(fg)
             if idx.size:
@@ -554,7 +573,8 @@ class Segmenter:
                     & (chroma <= c.shadow_chroma_tol)
                 )
                 fg.reshape(-1)[idx[shadow]] = False
-        return fg
+                removed.reshape(-1)[idx[shadow]] = True
+        return fg, removed
 
     def clean(
         self, fg: np.ndarray, pixel_scale: float = 1.0
@@ -622,12 +642,54 @@ class Segmenter:
 
     def apply(self, frame: np.ndarray) -> Segmentation:
         """Segment one frame: uint8 (H, W, 3) BGR or (H, W) grey -> :class:`Segmentation`."""
-        return self.from_foreground(self.raw_foreground(frame))
+        fg, shadow = self._foreground(frame)
+        return self.from_foreground(fg, shadow=shadow)
 
-    def from_foreground(self, fg: np.ndarray) -> Segmentation:
+    def with_shadow_given_back(
+        self, seg: Segmentation, person: tuple[int, int, np.ndarray]
+    ) -> Segmentation:
+        """``seg`` with the pixels its shadow test removed given back where ``person`` covers
+        them: ``(x, y, mask)``, a bool mask of the frame's pixels from ``(x, y)`` on (e.g. a
+        2D pose detector's person segmentation, :meth:`tracker.detector2d.PoseDetector.
+        person_pixels`). The clean-up and blobs are done again; ``seg`` itself when it keeps
+        no shadow or none of it lies under the person."""
+        if seg.foreground is None or seg.shadow is None or self._shape is None:
+            return seg
+        x, y, m = person
+        m = np.asarray(m, dtype=bool)
+        height, width = self._shape[:2]
+        rows, cols = seg.shadow.shape
+        if (rows, cols) != (height, width):  # the working resolution
+            sx, sy = cols / width, rows / height
+            x0, y0 = int(np.floor(x * sx)), int(np.floor(y * sy))
+            x1 = int(np.ceil((x + m.shape[1]) * sx))
+            y1 = int(np.ceil((y + m.shape[0]) * sy))
+            if x1 <= x0 or y1 <= y0:
+                return seg
+            m = cv2.resize(
+                m.astype(np.uint8), (x1 - x0, y1 - y0), interpolation=cv2.INTER_NEAREST
+            ).astype(bool)
+            x, y = x0, y0
+        # The mask's part inside the image.
+        cx0, cy0 = max(x, 0), max(y, 0)
+        cx1, cy1 = min(x + m.shape[1], cols), min(y + m.shape[0], rows)
+        if cx1 <= cx0 or cy1 <= cy0:
+            return seg
+        sub = m[cy0 - y : cy1 - y, cx0 - x : cx1 - x] & seg.shadow[cy0:cy1, cx0:cx1]
+        if not sub.any():
+            return seg
+        fg = seg.foreground.copy()
+        fg[cy0:cy1, cx0:cx1] |= sub
+        shadow = seg.shadow.copy()
+        shadow[cy0:cy1, cx0:cx1] &= ~sub
+        return self.from_foreground(fg, shadow=shadow)
+
+    def from_foreground(self, fg: np.ndarray, *, shadow: np.ndarray | None = None) -> Segmentation:
         """The clean-up, blobs and downscale of :meth:`apply` on a raw foreground mask: bool
         (h, w) at the frame's size or at the working resolution, e.g. a person mask from
-        elsewhere (the benchmark's true masks, ``bench/accuracy.py --true-masks``)."""
+        elsewhere (the benchmark's true masks, ``bench/accuracy.py --true-masks``). ``shadow``,
+        of the same size: the pixels a shadow test removed from it (kept on the result for
+        :meth:`with_shadow_given_back`)."""
         fg = np.asarray(fg, dtype=bool)
         if self._shape is None:
             raise SegmentationError("no frame size yet: give a background or segment a frame")
@@ -647,6 +709,15 @@ class Segmenter:
             labels = cv2.resize(labels_w, (width, height), interpolation=cv2.INTER_NEAREST)
             mask_full = labels > 0
             blobs = _upscaled_blobs(blobs_w, labels, (fg.shape[1], fg.shape[0]))
+        if shadow is not None:
+            shadow = np.asarray(shadow, dtype=bool)
+            if shadow.shape != fg.shape:
+                raise SegmentationError(
+                    f"shadow mask {shadow.shape[1]}x{shadow.shape[0]} is not the foreground's "
+                    f"{fg.shape[1]}x{fg.shape[0]}"
+                )
         if not blobs:
             log.debug("segmentation: no blob above the minimum area")
-        return Segmentation(mask_full=mask_full, mask=mask, blobs=blobs, labels=labels)
+        return Segmentation(
+            mask_full=mask_full, mask=mask, blobs=blobs, labels=labels, foreground=fg, shadow=shadow
+        )
