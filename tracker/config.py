@@ -1416,7 +1416,7 @@ class KeypointConfig(_Model):
             "the built-in detector's person segmentation covers them (dark or grey clothes "
             "taken for a shadow), with at least shadow_given_back_min_cameras cameras; the "
             "detector's first inference's output, no inference added "
-            '(docs/tracker.md, "Shadow pixels given back")',
+            '(docs/tracker.md, "Shadow pixels given back under the detector\'s person")',
         ),
     ] = True
     shadow_given_back_min_cameras: Annotated[
