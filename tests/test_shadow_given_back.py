@@ -1,6 +1,6 @@
 """The shadow pixels given back under the built-in detector's person (config.keypoints.
-shadow_given_back): a walker in grey clothes, whom the shadow test partly takes for a shadow,
-seen by two cameras."""
+shadow_given_back, opt-in): a walker in grey clothes, whom the shadow test partly takes for a
+shadow, seen by two cameras."""
 
 from __future__ import annotations
 
@@ -54,7 +54,8 @@ def _ious(tracker, frames, masks, cameras=(0, 1)) -> list[float]:
 
 
 def _config(**keypoints) -> TrackerConfig:
-    return TrackerConfig.model_validate({"keypoints": keypoints})
+    """The defaults with the shadow pixels given back (opt-in) unless ``keypoints`` say."""
+    return TrackerConfig.model_validate({"keypoints": {"shadow_given_back": True, **keypoints}})
 
 
 def test_two_cameras_get_the_grey_clothes_back(grey_walk) -> None:
@@ -72,7 +73,7 @@ def test_two_cameras_get_the_grey_clothes_back(grey_walk) -> None:
     assert all(a > b for a, b in zip(on, off, strict=True))
 
 
-def test_one_camera_keeps_its_silhouette_by_default(grey_walk) -> None:
+def test_off_by_default_and_through_one_camera(grey_walk) -> None:
     frames, masks, bgs, scene = grey_walk
 
     def run(cfg):
@@ -82,7 +83,7 @@ def test_one_camera_keeps_its_silhouette_by_default(grey_walk) -> None:
         return _ious(tr, frames, masks, cameras=(0,))
 
     default = run(_config())
-    assert default == run(_config(shadow_given_back=False))
+    assert default == run(_config(shadow_given_back=False)) == run(TrackerConfig())
     assert all(
         a > b for a, b in zip(run(_config(shadow_given_back_min_cameras=1)), default, strict=True)
     )
@@ -90,7 +91,9 @@ def test_one_camera_keeps_its_silhouette_by_default(grey_walk) -> None:
 
 def test_every_track_of_an_ensemble_scores_the_silhouette_given_back(grey_walk) -> None:
     frames, masks, bgs, scene = grey_walk
-    cfg = TrackerConfig.model_validate({"ensemble": {"tracks": 2}})
+    cfg = TrackerConfig.model_validate(
+        {"keypoints": {"shadow_given_back": True}, "ensemble": {"tracks": 2}}
+    )
     tr = make_tracker(scene.cameras, cfg, rng=np.random.default_rng(0), backgrounds=bgs)
     single = Tracker(scene.cameras, _config(), rng=np.random.default_rng(0), backgrounds=bgs)
     for k, views in enumerate(frames[:3]):
