@@ -427,3 +427,15 @@ def test_from_foreground_rejects_a_shadow_of_another_size(rng: np.random.Generat
     seg = Segmenter(SegmentationConfig(), _background(rng))
     with pytest.raises(SegmentationError, match="shadow mask 100x100"):
         seg.from_foreground(np.zeros((H, W), bool), shadow=np.zeros((100, 100), bool))
+
+
+@pytest.mark.parametrize("mode", ["static", "mog2"])
+def test_a_segmenter_may_spare_the_shadow_bookkeeping(rng: np.random.Generator, mode: str) -> None:
+    """``keep_shadow=False`` (a tracker that gives no shadow back): the same silhouette, no
+    shadow pixels kept."""
+    bg = _background(rng)
+    frame = _frame(bg, _person_mask(), rng, shadow=True)
+    kept = Segmenter(SegmentationConfig(mode=mode), bg).apply(frame)
+    spared = Segmenter(SegmentationConfig(mode=mode), bg, keep_shadow=False).apply(frame)
+    assert kept.shadow is not None and spared.shadow is None
+    assert np.array_equal(kept.mask_full, spared.mask_full) and kept.blobs == spared.blobs

@@ -122,3 +122,12 @@ def test_key_points_given_leave_the_silhouette(grey_walk) -> None:
         off.process(k, k / 25.0, views, keypoints=none)
         for a, b in zip(tr._last_obs.masks, off._last_obs.masks, strict=True):
             assert np.array_equal(a, b)
+
+
+def test_only_a_tracker_that_gives_shadows_back_keeps_them(grey_walk) -> None:
+    _, _, bgs, scene = grey_walk
+    on = Tracker(scene.cameras, _config(), rng=np.random.default_rng(0), backgrounds=bgs)
+    default = Tracker(scene.cameras, TrackerConfig(), rng=np.random.default_rng(0), backgrounds=bgs)
+    one = Tracker(scene.cameras[:1], _config(), rng=np.random.default_rng(0), backgrounds=bgs[:1])
+    assert all(sg.keep_shadow for sg in on.segmenters)
+    assert not any(sg.keep_shadow for sg in default.segmenters + one.segmenters)

@@ -1477,6 +1477,17 @@ class KeypointConfig(_Model):
         ),
     ] = "heatmap"
 
+    def gives_back_shadows(self, n_cameras: int) -> bool:
+        """Whether a tracker with ``n_cameras`` cameras gives the shadow pixels under the built-in
+        detector's person back to the silhouette (``shadow_given_back``, the cue on, a
+        detector, at least ``shadow_given_back_min_cameras`` cameras)."""
+        return (
+            self.enabled
+            and self.detector != "none"
+            and self.shadow_given_back
+            and n_cameras >= self.shadow_given_back_min_cameras
+        )
+
     def score_for(self, n_cameras: int) -> str:
         """How a model point is scored with ``n_cameras`` cameras (``score`` or
         ``score_multi_camera``)."""

@@ -616,7 +616,7 @@ def make_detector(config, n_cameras: int = 1) -> PoseDetector | None:
         refine=config.heatmap_refine,
         mirror=config.mirror and n_cameras >= config.mirror_min_cameras,
         heatmaps=config.score_for(n_cameras) == "heatmap",
-        people=config.shadow_given_back and n_cameras >= config.shadow_given_back_min_cameras,
+        people=config.gives_back_shadows(n_cameras),
     )
     det.load()
     if det.people and not det.has_people:

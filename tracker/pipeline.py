@@ -477,12 +477,13 @@ class Tracker:
         if len(bgs) != len(self.cameras):
             raise ValueError(f"{len(bgs)} background images for {len(self.cameras)} cameras")
         seg_cfg = c.segmentation.model_copy(update={"output_size": (w, h)})
+        keep_shadow = c.keypoints.gives_back_shadows(len(self.cameras))
         self.segmenters: list[Segmenter] = []
         for bg in bgs:
             sc = seg_cfg
             if bg is None and sc.mode == "static":
                 sc = sc.model_copy(update={"mode": "mog2"})
-            self.segmenters.append(Segmenter(sc, bg))
+            self.segmenters.append(Segmenter(sc, bg, keep_shadow=keep_shadow))
         if any(bg is None for bg in bgs) and seg_cfg.mode == "static":
             log.info("no background image for some cameras: learning the background (mog2)")
         #: Per camera, the occluders learned (config.occlusion) and given (likelihood size).
@@ -802,7 +803,8 @@ class Tracker:
         notes: list[str] = []
         if all(s.empty for s in segs):
             return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW)
-        chosen = [self._choose_blobs(i, s, notes) for i, s in enumerate(segs)]
+        chose: list[str] = []  # the blob choices' notes, made again if the silhouettes change
+        chosen = [self._choose_blobs(i, s, chose) for i, s in enumerate(segs)]
         if sum(int(s.mask.sum()) for s in chosen) < self.config.min_silhouette_px:
             return self._no_pose(frame_index, time_s, NOBODY_IN_VIEW + " (silhouette too small)")
         detected = (
@@ -817,8 +819,9 @@ class Tracker:
         if detected and self.detector.last_people is not None:
             given_back = self.give_back_shadows(segs)
             if any(g is not s for g, s in zip(given_back, segs, strict=True)):
-                notes.clear()
-                chosen = [self._choose_blobs(i, s, notes) for i, s in enumerate(given_back)]
+                chose = []
+                chosen = [self._choose_blobs(i, s, chose) for i, s in enumerate(given_back)]
+        notes += chose
         segs = chosen
         masks = [s.mask for s in segs]
         self._legs_cut_now = self._cut(segs)

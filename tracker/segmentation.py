@@ -394,13 +394,25 @@ class Segmenter:
         mode; in ``mog2``/``knn`` mode it seeds the model (otherwise the model starts from the
         first frame and learns as the footage goes).
 
+    keep_shadow : bool
+        Keep the pixels the shadow test removed on each result (:attr:`Segmentation.shadow`, for
+        :meth:`with_shadow_given_back`); without, ``shadow`` is None and the frame is spared
+        the bookkeeping.
+
     Notes
     -----
     One Segmenter per camera: the adaptive modes keep state between frames.
     """
 
-    def __init__(self, config: SegmentationConfig, background: np.ndarray | None = None) -> None:
+    def __init__(
+        self,
+        config: SegmentationConfig,
+        background: np.ndarray | None = None,
+        *,
+        keep_shadow: bool = True,
+    ) -> None:
         self.config = config
+        self.keep_shadow = bool(keep_shadow)
         self._bg: np.ndarray | None = None
         self._bg_blur: np.ndarray | None = None
         self._bg_chroma: np.ndarray | None = None
@@ -533,8 +545,8 @@ class Segmenter:
         if self._model is not None:
             out = self._model.apply(self._prepare(img), learningRate=self._rate)
             # 255 foreground, 127 shadow (only when shadow detection is on), 0 background.
-            shadow = out == 127 if self.config.shadow_suppression else None
-            return out > 200, shadow
+            keep = self.keep_shadow and self.config.shadow_suppression
+            return out > 200, (out == 127 if keep else None)
         return self._static_foreground(img)
 
     def _static_foreground(self, img: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
@@ -555,7 +567,8 @@ class Segmenter:
         fg = diff > c.threshold
         removed = None
         if c.shadow_suppression:
-            removed = np.zeros_like(fg)
+            if self.keep_shadow:
+                removed = np.zeros_like(fg)
             # Only the candidate pixels need the shadow test.
             idx = np.flatnonzero(fg)
             if idx.size:
@@ -573,7 +586,8 @@ class Segmenter:
                     & (chroma <= c.shadow_chroma_tol)
                 )
                 fg.reshape(-1)[idx[shadow]] = False
-                removed.reshape(-1)[idx[shadow]] = True
+                if removed is not None:
+                    removed.reshape(-1)[idx[shadow]] = True
         return fg, removed
 
     def clean(
