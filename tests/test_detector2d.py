@@ -606,11 +606,10 @@ def test_detections_keep_the_person_segmentation(scene, side_walk, monkeypatch) 
     assert PoseDetector.person_pixels((-500.0, -500.0, 100.0, 0.0), off, frames[0].shape) is None
 
 
-def test_the_person_segmentation_is_opt_in_and_kept_with_two_cameras() -> None:
-    assert not KeypointConfig().shadow_given_back
-    assert not make_detector(KeypointConfig(), 3).people
-    cfg = KeypointConfig(shadow_given_back=True)
-    assert cfg.shadow_given_back_min_cameras == 2
+def test_the_person_segmentation_is_kept_with_two_cameras() -> None:
+    assert not make_detector(KeypointConfig(shadow_given_back=False), 3).people
+    cfg = KeypointConfig()
+    assert cfg.shadow_given_back and cfg.shadow_given_back_min_cameras == 2
     assert not make_detector(cfg, 1).people
     assert make_detector(cfg, 2).people
     assert make_detector(cfg.model_copy(update={"shadow_given_back_min_cameras": 1}), 1).people
