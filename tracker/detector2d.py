@@ -37,9 +37,9 @@ need NumPy < 2 and an OpenCV build of their own.
 * **The person's pixels** (:meth:`PoseDetector.person_mask`): the model's own segmentation
   output, warped back into the frame, for the empty scene estimated from the footage
   (:func:`tracker.background.people_in_samples`), which leaves the person out of its median;
-  and, with ``people`` (opt-in, ``keypoints.shadow_given_back``), each detection's own output
-  (:attr:`PoseDetector.last_people`, :meth:`PoseDetector.person_pixels`), under which the
-  tracker gives the silhouette back the pixels its shadow test removed.
+  and, with ``people`` (``keypoints.shadow_given_back``, on with two cameras), each
+  detection's own output (:attr:`PoseDetector.last_people`, :meth:`PoseDetector.person_pixels`),
+  under which the tracker gives the silhouette back the pixels its shadow test removed.
 * **Cost**: one inference per camera and frame (two with ``mirror``), about 17-22 ms each on
   one core of this machine.
 
