@@ -59,6 +59,16 @@ def _config(**keypoints) -> TrackerConfig:
     return TrackerConfig.model_validate({"keypoints": keypoints})
 
 
+def _tracker(scene, bgs, n_cameras: int = 2, **keypoints) -> Tracker:
+    """A tracker of the scene's first ``n_cameras`` cameras under :func:`_config`, seed 0."""
+    return Tracker(
+        scene.cameras[:n_cameras],
+        _config(**keypoints),
+        rng=np.random.default_rng(0),
+        backgrounds=bgs[:n_cameras],
+    )
+
+
 def test_two_cameras_get_the_grey_clothes_back(grey_walk) -> None:
     frames, masks, bgs, scene = grey_walk
 
@@ -96,7 +106,7 @@ def test_every_track_of_an_ensemble_scores_the_silhouette_given_back(grey_walk) 
     frames, masks, bgs, scene = grey_walk
     cfg = TrackerConfig.model_validate({"ensemble": {"tracks": 2}})
     tr = make_tracker(scene.cameras, cfg, rng=np.random.default_rng(0), backgrounds=bgs)
-    single = Tracker(scene.cameras, _config(), rng=np.random.default_rng(0), backgrounds=bgs)
+    single = _tracker(scene, bgs)
     for k, views in enumerate(frames[:3]):
         tr.process(k, k / 25.0, views)
         single.process(k, k / 25.0, views)
@@ -110,13 +120,8 @@ def test_key_points_given_leave_the_silhouette(grey_walk) -> None:
     """Without the built-in detector's run (key points given to process) nothing is given
     back."""
     frames, masks, bgs, scene = grey_walk
-    tr = Tracker(scene.cameras, _config(), rng=np.random.default_rng(0), backgrounds=bgs)
-    off = Tracker(
-        scene.cameras,
-        _config(shadow_given_back=False),
-        rng=np.random.default_rng(0),
-        backgrounds=bgs,
-    )
+    tr = _tracker(scene, bgs)
+    off = _tracker(scene, bgs, shadow_given_back=False)
     none = [None, None]
     for k, views in enumerate(frames[:2]):
         tr.process(k, k / 25.0, views, keypoints=none)
@@ -127,13 +132,7 @@ def test_key_points_given_leave_the_silhouette(grey_walk) -> None:
 
 def test_only_a_tracker_that_gives_shadows_back_keeps_them(grey_walk) -> None:
     _, _, bgs, scene = grey_walk
-    on = Tracker(scene.cameras, TrackerConfig(), rng=np.random.default_rng(0), backgrounds=bgs)
-    off = Tracker(
-        scene.cameras,
-        _config(shadow_given_back=False),
-        rng=np.random.default_rng(0),
-        backgrounds=bgs,
-    )
-    one = Tracker(scene.cameras[:1], _config(), rng=np.random.default_rng(0), backgrounds=bgs[:1])
+    on, off = _tracker(scene, bgs), _tracker(scene, bgs, shadow_given_back=False)
+    one = _tracker(scene, bgs, n_cameras=1)
     assert all(sg.keep_shadow for sg in on.segmenters)
     assert not any(sg.keep_shadow for sg in off.segmenters + one.segmenters)
