@@ -238,8 +238,7 @@ class EnsembleTracker:
             keypoints = first.detect_keypoints(frames, segs)
             det = first.detector
             heatmaps = None if det is None else det.last_heatmaps
-            if det is not None and first.keypoint_cue is not None:
-                segs = first.give_back_shadows(segs)
+            segs = first.give_back_shadows(segs)
         results = [
             t.process_segmentations(frame_index, time_s, segs, frames, keypoints, heatmaps)
             for t in self.tracks

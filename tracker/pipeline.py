@@ -813,10 +813,9 @@ class Tracker:
             and frames is not None
             and self.detector is not None
         )
-        if detected:
+        if detected:  # only after its own detection: the last one's people are stale
             keypoints = self.detect_keypoints(frames, chosen)
             heatmaps = self.detector.last_heatmaps
-        if detected and self.detector.last_people is not None:
             given_back = self.give_back_shadows(segs)
             if any(g is not s for g, s in zip(given_back, segs, strict=True)):
                 chose = []
