@@ -19,7 +19,9 @@ background PNGs, ``JOINTS.csv``) and read back, so the tracker sees codec artefa
 Diagnostics, to tell the tracker engineer where the error comes from: heading error (first
 frame and median; share of frames facing backwards), sacrum errors (horizontal, height bias,
 distance to the first camera: a one-camera depth slide), lowest-foot height error (feet sinking
-into or floating above the floor), hip width and leg length ratios, the mean signed knee
+into or floating above the floor), the all-joint error split into each key point's constant
+offset over the run and the rest (``gaitwatch.evaluation.offset_split``: the first is what a
+fixed correction per person could remove), hip width and leg length ratios, the mean signed knee
 flexion and foot pitch errors while the true foot stands flat on the floor
 (``gaitwatch.evaluation.stance_bias``: a knee bent too far, a toe pointing down),
 re-initialisations, silhouette IoU of the tracker's segmentation and of the estimate's model
@@ -922,7 +924,7 @@ def diagnostics(truth: Trajectory, est: Trajectory, camera, second_camera=None) 
     one), foot height, flat-foot stance errors, and where the worst frame is (for the
     diagnosis)."""
     from gait.geometry import body_forward, left_of
-    from gaitwatch.evaluation import align, stance_bias
+    from gaitwatch.evaluation import align, offset_split, stance_bias
 
     it, ie = align(truth, est)
     if not it.size:
@@ -969,6 +971,7 @@ def diagnostics(truth: Trajectory, est: Trajectory, camera, second_camera=None) 
         "leg_length_ratio": legs,
         "leg_length_err_pct": 100 * abs(legs - 1),
         **{f"stance_{k}": v for k, v in stance_bias(tp, ep).items()},
+        **offset_split(tp, ep),
     }
 
 
@@ -1082,7 +1085,7 @@ def diag_table(runs: list[Run]) -> str:
     for r in runs:
         d = r.diag
         if not d:
-            rows.append([*_scene_cells(r, draws), r.filter] + ["-"] * 20)
+            rows.append([*_scene_cells(r, draws), r.filter] + ["-"] * 21)
             continue
         rows.append(
             [
@@ -1098,6 +1101,7 @@ def diag_table(runs: list[Run]) -> str:
                 + ("" if math.isnan(d["depth2_mm"]) else f" / {d['depth2_mm']:+.0f}"),
                 f"{d['foot_dz_mm']:+.0f}",
                 f"{d['first_half_mm']:.0f} / {d['second_half_mm']:.0f}",
+                f"{d['constant_mm']:.0f} / {d['varying_mm']:.0f}",
                 f"{d['hip_width_ratio']:.2f}",
                 f"{d['leg_length_ratio']:.2f}",
                 f"{d['stance_knee_deg']:+.0f} / {d['stance_pitch_deg']:+.0f}",
@@ -1124,6 +1128,7 @@ def diag_table(runs: list[Run]) -> str:
             "depth err cam0 (/ cam1) mm",
             "lowest foot z err mm",
             "all mm 1st / 2nd half",
+            "each point's constant offset / the rest mm",
             "hip width est/true",
             "leg length est/true",
             "flat-foot stance: knee / foot pitch err deg",
@@ -1342,6 +1347,8 @@ JSON_DIAGNOSTICS = (
     "depth_mm",
     "depth2_mm",
     "heading_flip",
+    "constant_mm",
+    "varying_mm",
 )
 
 

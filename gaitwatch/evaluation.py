@@ -21,6 +21,10 @@ ground truth of the same footage (a synthetic scene's ``JOINTS.csv``) and return
   ``swap_relative`` (30 %) of it *and* by more than ``swap_absolute_mm`` (50 mm).
 * **Flat-foot stance** (a diagnostic, :func:`stance_bias`): the mean signed knee flexion and
   foot pitch errors over the frames where the true foot stands flat on the floor.
+* **Constant and varying error** (a diagnostic, :func:`offset_split`): each key point's mean
+  offset over the run (what a fixed correction per person could remove: the body's
+  proportions, where its joint centres are defined, a lasting lean) against what is left
+  once it is removed.
 * **Speed**: ms/frame and likelihood evaluations/frame come from the harness that ran the
   tracker (they are not measured here).
 
@@ -248,6 +252,33 @@ def stance_bias(
         "pitch_deg": _nanmean(np.concatenate(pitch)),
         "share": share,
     }
+
+
+def offset_split(truth_pos: np.ndarray, est_pos: np.ndarray) -> dict[str, float]:
+    """The position error split into each key point's constant offset and what varies.
+
+    Per key point the offset is its mean error vector (estimate - truth) over the frames where
+    both are known. ``constant_mm``: the mean over the key points of the offsets' lengths;
+    ``varying_mm``: the mean over every known (frame, key point) pair of the error left after
+    subtracting its key point's offset, which is what a fixed correction per run cannot
+    remove. An estimate that is the truth moved by a fixed vector per key point has
+    ``varying_mm`` 0 and ``constant_mm`` the mean length of those vectors. NaN where nothing
+    is known.
+
+    Parameters
+    ----------
+    truth_pos, est_pos : ndarray, shape (K, 19, 3)
+        Metres, matched frames.
+    """
+    err = (np.asarray(est_pos, dtype=np.float64) - np.asarray(truth_pos, dtype=np.float64)) * 1e3
+    known = np.isfinite(err).all(axis=-1)  # (K, 19)
+    if not known.any():
+        return {"constant_mm": math.nan, "varying_mm": math.nan}
+    with _quiet():
+        offset = np.nanmean(np.where(known[..., None], err, np.nan), axis=0)  # (19, 3)
+        constant = float(np.nanmean(np.linalg.norm(offset, axis=-1)))
+        varying = float(np.nanmean(np.linalg.norm(err - offset, axis=-1)[known]))
+    return {"constant_mm": constant, "varying_mm": varying}
 
 
 class _quiet:
@@ -569,6 +600,7 @@ __all__ = [
     "format_row",
     "joint_errors_mm",
     "leg_swaps",
+    "offset_split",
     "pool",
     "swap_legs",
     "truth_forward",

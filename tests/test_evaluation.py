@@ -24,6 +24,7 @@ from gaitwatch.conventions import (
     R_HIP,
     R_KNEE,
     R_TOE,
+    R_WRIST,
     SACRUM,
 )
 from gaitwatch.evaluation import (
@@ -35,6 +36,7 @@ from gaitwatch.evaluation import (
     evaluate,
     foot_pitch_deg,
     leg_swaps,
+    offset_split,
     pool,
     stance_bias,
     swap_legs,
@@ -186,6 +188,36 @@ def test_stance_bias_without_a_foot_on_the_floor() -> None:
     p = walker().positions + [0.0, 0.0, 0.3]
     b = stance_bias(p, p)
     assert b["share"] == 0.0 and math.isnan(b["knee_deg"]) and math.isnan(b["pitch_deg"])
+
+
+def test_a_fixed_offset_per_key_point_is_all_constant() -> None:
+    p = walker().positions
+    rng = np.random.default_rng(3)
+    offsets = rng.normal(0.0, 0.04, (19, 3))  # metres, one vector per key point
+    split = offset_split(p, p + offsets)
+    assert split["constant_mm"] == pytest.approx(
+        np.linalg.norm(offsets, axis=1).mean() * 1000, rel=1e-9
+    )
+    assert split["varying_mm"] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_an_offset_and_a_zero_mean_error_are_told_apart() -> None:
+    p = walker(n=40).positions
+    est = p.copy()
+    est[:, L_KNEE] += [0.03, 0.0, 0.0]  # 30 mm forward, every frame
+    sign = np.where(np.arange(40) % 2 == 0, 1.0, -1.0)
+    est[:, R_WRIST] += sign[:, None] * [0.0, 0.0, 0.05]  # 50 mm up and down in turn
+    est[5, HEAD] = np.nan  # unknown points are left out, not scored as errors
+    split = offset_split(p, est)
+    assert split["constant_mm"] == pytest.approx(30.0 / 19, rel=1e-9)
+    # only the wrist varies: 50 mm in each of its 40 frames, over 40 x 19 - 1 known pairs
+    assert split["varying_mm"] == pytest.approx(50.0 * 40 / (40 * 19 - 1), rel=1e-9)
+
+
+def test_offset_split_of_nothing_known() -> None:
+    p = walker(n=5).positions
+    split = offset_split(p, np.full_like(p, np.nan))
+    assert math.isnan(split["constant_mm"]) and math.isnan(split["varying_mm"])
 
 
 def test_thigh_rotation_gives_that_hip_angle_error() -> None:
