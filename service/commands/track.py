@@ -33,8 +33,10 @@ the same poses.
 ``--tracks N`` runs N independent tracks on the same silhouettes, each with 1/N of the
 evaluations, and writes the mean of their key points (:mod:`tracker.ensemble`): with two
 cameras the key points come nearer the truth (two tracks: 3.2 mm over 48 benchmark runs,
-docs/tracker.md, "Session 57"; through one camera no gain was measured), about 1.6 times
-slower with two and 2.4 with three; the pose vector written is the first track's.
+docs/tracker.md, "Session 57"; through one camera no gain was measured), but over whole
+recordings the mean of the tracks swings the knee about 3 degrees less and the crouch walks
+lose ("Session 58"); about 1.6 times slower with two and 2.4 with three; the pose vector
+written is the first track's.
 
 ``--occluder`` gives, per camera, an image of the frame's size whose non-zero (white) pixels are
 furniture that can stand between the camera and the person (a table, a sofa's back); ``none``
