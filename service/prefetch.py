@@ -12,6 +12,10 @@ thread, so a stateful ``fn`` (an adaptive background model) sees what it would s
 loop. An exception raised by the iteration or by ``fn`` is raised by the consumer when it
 reaches that position: everything before it has been handed out. Closing the generator (or
 leaving the ``for`` loop by an exception) stops the worker.
+
+:func:`with_next` hands out each item with the one after it, so that the caller can start work
+on the next item (``gaitwatch track`` runs the 2D detector of the next frame in a thread of its
+own, ``tracker.pipeline.Tracker.detect_ahead``) before it handles this one.
 """
 
 from __future__ import annotations
@@ -94,3 +98,26 @@ def prefetched(
         worker.join(timeout=10)
         if worker.is_alive():
             log.warning("%s: the worker thread is still running", name)
+
+
+def with_next(items: Iterable[T]) -> Iterator[tuple[T, T | None]]:
+    """Yield ``(item, following)`` for the items in order: each with the one after it (None
+    after the last), fetched before the item is handed out, so that work on the next item can
+    start while the caller handles this one.
+
+    An exception raised fetching the next item is raised when the caller asks for the pair
+    after: the item before it is handed out first, as :func:`prefetched` does. The items must
+    not be None.
+    """
+    it = iter(items)
+    item = next(it, None)
+    while item is not None:
+        err: BaseException | None = None
+        try:
+            following = next(it, None)
+        except Exception as e:  # raised after ``item`` is handed out
+            following, err = None, e
+        yield item, following
+        if err is not None:
+            raise err
+        item = following

@@ -9,7 +9,7 @@ from contextlib import closing
 
 import pytest
 
-from service.prefetch import prefetched
+from service.prefetch import prefetched, with_next
 
 
 def _workers() -> list[threading.Thread]:
@@ -87,3 +87,43 @@ def test_an_error_in_the_consumer_stops_the_worker() -> None:
 def test_depth_must_be_positive() -> None:
     with pytest.raises(ValueError, match="depth"):
         next(prefetched(range(3), lambda x: x, depth=0))
+
+
+# -- with_next: each item with the one after it ----------------------------------------------
+def test_each_item_comes_with_the_next_one_fetched_before() -> None:
+    fetched: list[int] = []
+
+    def items():
+        for x in range(4):
+            fetched.append(x)
+            yield x
+
+    got = []
+    for item, following in with_next(items()):
+        assert fetched[-1] == (item + 1 if item < 3 else 3)  # the next one is already fetched
+        got.append((item, following))
+    assert got == [(0, 1), (1, 2), (2, 3), (3, None)]
+    assert list(with_next([])) == []
+    assert list(with_next(["only"])) == [("only", None)]
+
+
+def test_an_error_fetching_the_next_item_comes_after_the_item_before() -> None:
+    def items():
+        yield from range(3)
+        raise OSError("item 3 is corrupt")
+
+    got = []
+    with pytest.raises(OSError, match="item 3"):
+        for item, following in with_next(items()):
+            got.append((item, following))
+    # item 2 was handed out (without a next one) before the error was raised
+    assert got == [(0, 1), (1, 2), (2, None)]
+
+
+def test_an_error_fetching_the_first_item_is_raised_at_once() -> None:
+    def items():
+        raise OSError("no first item")
+        yield 0
+
+    with pytest.raises(OSError, match="first"):
+        next(with_next(items()))

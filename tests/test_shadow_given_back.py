@@ -136,3 +136,69 @@ def test_only_a_tracker_that_gives_shadows_back_keeps_them(grey_walk) -> None:
     one = _tracker(scene, bgs, n_cameras=1)
     assert all(sg.keep_shadow for sg in on.segmenters)
     assert not any(sg.keep_shadow for sg in off.segmenters + one.segmenters)
+
+
+# -- the detector run ahead (Tracker.detect_ahead, what `gaitwatch track` does in a thread) --
+def _same_results(a, b) -> None:
+    assert a.status == b.status and a.notes == b.notes
+    assert np.array_equal(a.pose, b.pose) and a.weight == b.weight
+    assert np.array_equal(a.joints, b.joints)
+
+
+def test_a_detection_made_ahead_tracks_as_the_tracker_s_own(grey_walk) -> None:
+    """Two cameras (the shadow pixels given back under the detected person): each step
+    detected ahead, then tracked with that detection, gives the results of plain process()
+    (the same detections in the same order), for one tracker and for an ensemble."""
+    frames, _, bgs, scene = grey_walk
+    for cfg in (_config(), TrackerConfig.model_validate({"ensemble": {"tracks": 2}})):
+        plain, ahead = (
+            make_tracker(scene.cameras, cfg, rng=np.random.default_rng(0), backgrounds=bgs)
+            for _ in range(2)
+        )
+        for k, views in enumerate(frames[:4]):
+            want = plain.process(k, k / 25.0, views)
+            segs = ahead.segment(views)
+            det = ahead.detect_ahead(views, segs)
+            assert det is not None and det.ran and det.segs == tuple(segs)
+            assert det.people is not None and all(p is not None for p in det.people)
+            got = ahead.process_segmentations(k, k / 25.0, segs, views, detection=det)
+            _same_results(got, want)
+
+
+def test_nothing_to_detect_and_several_blobs(grey_walk) -> None:
+    """An empty step needs no detection (``ran`` False; the tracker then finds nobody); a
+    camera that sees several blobs leaves the detection to the tracker's blob choice (None);
+    a detection of other silhouettes, or with key points given, is refused."""
+    from tracker.segmentation import keep_blobs
+
+    frames, _, bgs, scene = grey_walk
+    tr = _tracker(scene, bgs)
+    views = frames[0]
+    segs = tr.segment(views)
+    empty = [keep_blobs(s, []) for s in segs]
+    det = tr.detect_ahead(views, empty)
+    assert det is not None and not det.ran and det.keypoints is None
+    assert not tr.process_segmentations(0, 0.0, empty, views, detection=det).has_pose
+    # a second blob in camera 0 (a copy of the person moved aside): the tracker's choice decides
+    two = _two_blobs(segs[0])
+    assert tr.detect_ahead(views, [two, segs[1]]) is None
+    det = tr.detect_ahead(views, segs)
+    with pytest.raises(ValueError, match="other silhouettes"):
+        tr.process_segmentations(0, 0.0, tr.segment(views), views, detection=det)
+    with pytest.raises(ValueError, match="give one"):
+        tr.process_segmentations(0, 0.0, segs, views, keypoints=[None, None], detection=det)
+    with pytest.raises(ValueError, match="cameras"):
+        tr.detect_ahead(views[:1], segs[:1])
+    off = _tracker(scene, bgs, detector="none")
+    assert not off.detect_ahead(views, off.segment(views)).ran
+
+
+def _two_blobs(seg):
+    """``seg`` with a second blob listed (a small one at the image's corner)."""
+    from dataclasses import replace
+
+    from tracker.segmentation import Blob
+
+    other = Blob(label=int(seg.labels.max()) + 1, area=50, area_fraction=0.001,
+                 bbox=(0, 0, 5, 10), centroid=(2.0, 5.0))  # fmt: skip
+    return replace(seg, blobs=[*seg.blobs, other])

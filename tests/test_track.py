@@ -760,6 +760,41 @@ def test_track_cli_round_trip_and_seed(clip: dict, tmp_path: Path, capsys) -> No
     assert err.mean() < 0.15
 
 
+def test_track_cli_detects_the_next_frame_ahead_with_the_same_poses(
+    clip: dict, tmp_path: Path, monkeypatch
+) -> None:
+    """`gaitwatch track` runs the built-in detector of the next frame in a thread of its own
+    while it tracks the current one (Tracker.detect_ahead); the pose log is the same as with
+    every detection made in turn."""
+    import threading
+
+    import service.commands.track as track_cmd
+    from tracker.pipeline import Tracker
+
+    calls: list[tuple[str, int]] = []
+    original = Tracker.detect_ahead
+
+    def spy(self, frames, segs):
+        det = original(self, frames, segs)
+        calls.append((threading.current_thread().name, int(det is not None and det.ran)))
+        return det
+
+    monkeypatch.setattr(Tracker, "detect_ahead", spy)
+    logs = []
+    for ahead in (True, False):
+        monkeypatch.setattr(track_cmd, "DETECT_AHEAD", ahead)
+        out = tmp_path / f"ahead-{ahead}.mcap"
+        assert main(_args(clip, out, "--max-frames", "6", "--particles", "729")) == 0
+        logs.append(read_poselog(out))
+    # every frame after the first was detected ahead, in the worker thread
+    assert len(calls) == 5 and all(name.startswith("detect-ahead") for name, _ in calls)
+    assert all(ran for _, ran in calls)
+    a, b = logs
+    assert len(a) == len(b) == 6
+    assert np.array_equal(a.dofs, b.dofs) and np.array_equal(a.weights, b.weights)
+    assert np.array_equal(a.trajectory.positions, b.trajectory.positions)
+
+
 def test_track_cli_one_camera_writes_the_depth_stage(clip: dict, tmp_path: Path, capsys) -> None:
     """Through one camera `gaitwatch track` fits the body's distance from it over the longer
     window (tracker.smoothing, depth stage): its stream writes what the whole-footage form

@@ -34,7 +34,7 @@ import numpy as np
 
 from gaitwatch.conventions import side_index
 from tracker.config import EnsembleConfig, TrackerConfig
-from tracker.pipeline import FrameResult, Tracker
+from tracker.pipeline import Detection, FrameResult, Tracker
 from tracker.segmentation import Segmentation
 
 #: Key-point pairs exchanged together when a track's side is matched to the reference's.
@@ -208,6 +208,15 @@ class EnsembleTracker:
         for t in self.tracks:
             t.set_occluders(occluders)
 
+    def detect_ahead(self, frames: Sequence[np.ndarray], segs: Sequence[Segmentation]) -> Detection:
+        """As :meth:`tracker.pipeline.Tracker.detect_ahead`: the detector the tracks share
+        (never None: the ensemble detects before any track chooses its blobs)."""
+        first = self.tracks[0]
+        Detection.check_step(frames, segs, len(first.cameras))
+        if first.detector is None or all(s.empty for s in segs):
+            return Detection(tuple(segs), ran=False)
+        return Detection.found(segs, first.detect_keypoints(frames, segs), first.detector)
+
     def process(
         self,
         frame_index: int,
@@ -228,17 +237,23 @@ class EnsembleTracker:
         frames: Sequence[np.ndarray] | None = None,
         keypoints: Sequence[np.ndarray | None] | None = None,
         heatmaps: Sequence | None = None,
+        detection: Detection | None = None,
     ) -> FrameResult:
         """As :meth:`tracker.pipeline.Tracker.process_segmentations`, every track in turn (the
-        built-in detector runs once, on the silhouettes before each track chooses its blobs;
-        the shadow pixels under the person it found are given back then,
-        :meth:`tracker.pipeline.Tracker.give_back_shadows`)."""
-        if keypoints is None and frames is not None and not all(s.empty for s in segs):
-            first = self.tracks[0]
+        built-in detector runs once, on the silhouettes before each track chooses its blobs,
+        or :meth:`detect_ahead` ran it; the shadow pixels under the person it found are given
+        back then, :meth:`tracker.pipeline.Tracker.give_back_shadows`)."""
+        first = self.tracks[0]
+        if detection is not None:
+            detection.check_use(segs, keypoints)
+            if detection.ran:
+                keypoints, heatmaps = detection.keypoints, detection.heatmaps
+                segs = first.give_back_shadows(segs, detection.people)
+        elif keypoints is None and frames is not None and not all(s.empty for s in segs):
             keypoints = first.detect_keypoints(frames, segs)
             det = first.detector
             heatmaps = None if det is None else det.last_heatmaps
-            segs = first.give_back_shadows(segs)
+            segs = first.give_back_shadows(segs, None if det is None else det.last_people)
         results = [
             t.process_segmentations(frame_index, time_s, segs, frames, keypoints, heatmaps)
             for t in self.tracks

@@ -154,6 +154,55 @@ class FrameResult:
         return self.pose is not None
 
 
+@dataclass(frozen=True)
+class Detection:
+    """The built-in 2D detector's output on one time step's silhouettes, found before the step
+    is tracked (:meth:`Tracker.detect_ahead`), so that ``gaitwatch track`` can run the
+    detector of the next step in a second thread while the tracker works on this one.
+
+    ``segs`` are the silhouettes it was found on (the very objects
+    :meth:`Tracker.process_segmentations` is then given). ``ran`` is False when the step has
+    nothing to detect (nobody in view, the silhouettes too small, no detector): the tracker
+    would not run the detector on it either. ``keypoints``, ``heatmaps`` and ``people`` are
+    what :meth:`Tracker.detect_keypoints` returned and what the detector kept
+    (``last_heatmaps``, ``last_people``) right after.
+    """
+
+    segs: tuple[Segmentation, ...]
+    ran: bool
+    keypoints: list[np.ndarray | None] | None = None
+    heatmaps: list | None = None
+    people: list | None = None
+
+    @classmethod
+    def found(cls, segs: Sequence[Segmentation], keypoints, detector) -> Detection:
+        """The detection ``detector`` just made on ``segs`` (its points ``keypoints``)."""
+        return cls(tuple(segs), True, keypoints, detector.last_heatmaps, detector.last_people)
+
+    @staticmethod
+    def check_step(frames: Sequence, segs: Sequence, n_cameras: int) -> None:
+        """Refuse a step to detect ahead that is not one frame and one segmentation per
+        camera."""
+        if len(frames) != n_cameras or len(segs) != n_cameras:
+            raise ValueError(
+                f"{len(frames)} frames and {len(segs)} segmentations for {n_cameras} cameras"
+            )
+
+    def check_use(self, segs: Sequence[Segmentation], keypoints) -> None:
+        """Refuse to track with this detection a step given key points or other
+        silhouettes."""
+        if keypoints is not None:
+            raise ValueError("key points given and a detection made ahead: give one")
+        if len(self.segs) != len(segs) or any(
+            a is not b for a, b in zip(self.segs, segs, strict=True)
+        ):
+            raise ValueError("the detection made ahead is of other silhouettes")
+
+
+#: ``Tracker.give_back_shadows``'s default: the people of the detector's last detection.
+_LAST_PEOPLE = object()
+
+
 @dataclass
 class _Observation:
     """What the estimate of one time step is made from, kept for the backward pass: the
@@ -617,6 +666,7 @@ class Tracker:
         frames: Sequence[np.ndarray] | None = None,
         keypoints: Sequence[np.ndarray | None] | None = None,
         heatmaps: Sequence[KeypointHeatmaps | None] | None = None,
+        detection: Detection | None = None,
     ) -> FrameResult:
         """Track one time step from already segmented frames (one per camera).
 
@@ -626,11 +676,15 @@ class Tracker:
         (``config.keypoints``, :mod:`tracker.keypoints2d`); without them it does not score
         this time step, unless the built-in detector finds them in ``frames``. ``heatmaps``
         (per camera :class:`tracker.keypoints2d.KeypointHeatmaps` or None) go with given
-        ``keypoints``; the built-in detector's come with its points.
+        ``keypoints``; the built-in detector's come with its points. ``detection``, from
+        :meth:`detect_ahead` on these very ``segs`` (and ``frames``), stands for the built-in
+        detector's run on this step; the result is the same as without it.
         """
+        if detection is not None:
+            detection.check_use(segs, keypoints)
         with _single_thread():  # small batches; the large ones ask for every thread
             self._last_obs = None
-            res = self._process(frame_index, time_s, segs, frames, keypoints, heatmaps)
+            res = self._process(frame_index, time_s, segs, frames, keypoints, heatmaps, detection)
             if self._revising:
                 res.revisions = self._revise(res)
             return res
@@ -721,14 +775,40 @@ class Tracker:
         sizes = [(cam.width, cam.height) for cam in self.cameras]
         return self.detector.detect_frames(frames, segs, sizes)
 
-    def give_back_shadows(self, segs: Sequence[Segmentation]) -> list[Segmentation]:
+    def detect_ahead(
+        self, frames: Sequence[np.ndarray], segs: Sequence[Segmentation]
+    ) -> Detection | None:
+        """The built-in detector run now on a time step that :meth:`process_segmentations`
+        will track later, given the same ``frames`` and ``segs`` and the returned
+        :class:`Detection`; None when the crop depends on the blob the track will follow (a
+        camera sees several blobs): the step's detection then waits for it.
+
+        The steps must come in their order, each detected ahead or tracked before the next is
+        detected ahead: the detector's crop follows the person from step to step. Nothing but
+        the detector's own state (that crop, its last output) is read or changed, so it may run
+        in another thread while the tracker works on the step before."""
+        Detection.check_step(frames, segs, len(self.cameras))
+        segs = tuple(segs)
+        if self.keypoint_cue is None or self.detector is None or all(s.empty for s in segs):
+            return Detection(segs, ran=False)
+        if any(len(s.blobs) > 1 for s in segs):
+            return None  # the track's blob choice (_choose_blobs) decides the crop
+        if sum(int(s.mask.sum()) for s in segs) < self.config.min_silhouette_px:
+            return Detection(segs, ran=False)
+        return Detection.found(segs, self.detect_keypoints(frames, segs), self.detector)
+
+    def give_back_shadows(
+        self, segs: Sequence[Segmentation], people: object = _LAST_PEOPLE
+    ) -> list[Segmentation]:
         """``segs`` with the pixels their shadow test removed given back where the person
-        segmentation of the built-in detector's last :meth:`detect_keypoints` covers them
-        (``config.keypoints.shadow_given_back``, :meth:`tracker.segmentation.Segmenter.
+        segmentation of the built-in detector covers them (``people``: a
+        :class:`Detection`'s, by default those of the detector's last :meth:`detect_keypoints`;
+        ``config.keypoints.shadow_given_back``, :meth:`tracker.segmentation.Segmenter.
         with_shadow_given_back`): a camera's own segmentation where the detector found nobody
         or kept no person segmentation."""
         det = self.detector
-        people = None if det is None else det.last_people
+        if people is _LAST_PEOPLE:
+            people = None if det is None else det.last_people
         if people is None:
             return list(segs)
         if len(people) != len(segs):
@@ -798,6 +878,7 @@ class Tracker:
         frames: Sequence[np.ndarray] | None = None,
         keypoints: Sequence[np.ndarray | None] | None = None,
         heatmaps: Sequence[KeypointHeatmaps | None] | None = None,
+        detection: Detection | None = None,
     ) -> FrameResult:
         self._lik.count = 0
         notes: list[str] = []
@@ -814,9 +895,18 @@ class Tracker:
             and self.detector is not None
         )
         if detected:  # only after its own detection: the last one's people are stale
-            keypoints = self.detect_keypoints(frames, chosen)
-            heatmaps = self.detector.last_heatmaps
-            given_back = self.give_back_shadows(segs)
+            if detection is None:
+                keypoints = self.detect_keypoints(frames, chosen)
+                heatmaps, people = self.detector.last_heatmaps, self.detector.last_people
+            elif detection.ran and all(c is s for c, s in zip(chosen, detection.segs, strict=True)):
+                keypoints, heatmaps, people = (
+                    detection.keypoints,
+                    detection.heatmaps,
+                    detection.people,
+                )
+            else:  # detect_ahead and this choice disagree: a bug, not bad input
+                raise RuntimeError("the detection made ahead does not match this step")
+            given_back = self.give_back_shadows(segs, people)
             if any(g is not s for g, s in zip(given_back, segs, strict=True)):
                 chose = []
                 chosen = [self._choose_blobs(i, s, chose) for i, s in enumerate(given_back)]
