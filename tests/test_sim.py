@@ -481,6 +481,38 @@ def test_advise_renders_paths_and_scores_a_tracker() -> None:
     assert "Floor area where gait can be measured" in text and "fake" in text
 
 
+def test_advise_tracks_its_clips_as_gaitwatch_track_does(monkeypatch) -> None:
+    """``simulate --advise --track``'s tracker callable (service.tracking: the 2D detector of
+    the next frame beside the tracker) follows a rendered walk, with the same key points as
+    every detection made in turn."""
+    import service.tracking as tracking
+    from gaitwatch.sim.advise import SimClip
+    from gaitwatch.sim.synth import render_background
+    from service.commands.simulate import tracker_callable
+
+    walk = procedural_walk(distance_m=1.6, fps=20)
+    cfg = SceneConfig(views=["oblique"], image_size=(320, 240), fps=20.0, max_frames=8, seed=1)
+    scene = build_scene(walk, cfg)
+    frames = [i[0] for _, i, _ in render_frames(scene)]
+    clip = SimClip(
+        cameras=list(scene.cameras),
+        frames=[np.stack(frames)],
+        backgrounds=[render_background(scene, 0)],
+        fps=cfg.fps,
+        truth=scene.truth,
+        scene=scene,
+    )
+    runs = []
+    for ahead in (True, False):
+        monkeypatch.setattr(tracking, "DETECT_AHEAD", ahead)
+        runs.append(tracker_callable(0)(clip))
+    a, b = runs
+    assert list(a.frames) == list(b.frames) and len(a.frames) >= 6
+    assert np.array_equal(a.positions, b.positions)
+    e_all, _, _ = pose_errors(scene.truth, a)
+    assert e_all < 250.0  # mm: followed, not lost (one camera, 8 frames)
+
+
 def test_pose_errors_known_offset() -> None:
     tr = procedural_walk(distance_m=1.0, fps=20)
     est = Trajectory(positions=tr.positions + [0, 0.003, 0.004], times=tr.times)

@@ -768,7 +768,7 @@ def test_track_cli_detects_the_next_frame_ahead_with_the_same_poses(
     every detection made in turn."""
     import threading
 
-    import service.commands.track as track_cmd
+    import service.tracking as tracking
     from tracker.pipeline import Tracker
 
     calls: list[tuple[str, int]] = []
@@ -782,7 +782,7 @@ def test_track_cli_detects_the_next_frame_ahead_with_the_same_poses(
     monkeypatch.setattr(Tracker, "detect_ahead", spy)
     logs = []
     for ahead in (True, False):
-        monkeypatch.setattr(track_cmd, "DETECT_AHEAD", ahead)
+        monkeypatch.setattr(tracking, "DETECT_AHEAD", ahead)
         out = tmp_path / f"ahead-{ahead}.mcap"
         assert main(_args(clip, out, "--max-frames", "6", "--particles", "729")) == 0
         logs.append(read_poselog(out))

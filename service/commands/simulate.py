@@ -7,6 +7,7 @@ import argparse
 import json
 import logging
 import math
+from contextlib import closing
 from pathlib import Path
 
 import numpy as np
@@ -156,6 +157,7 @@ def tracker_callable(seed: int = 0):
     (``tracker.pipeline.Tracker``) on a rendered clip, given the empty-scene backgrounds and the
     true stature."""
     from gaitwatch.trajectory import Trajectory
+    from service.tracking import tracked
     from tracker.ensemble import make_tracker
     from tracker.output import written_keypoints
     from tracker.revision import ResultQueue
@@ -168,12 +170,15 @@ def tracker_callable(seed: int = 0):
             height_m=float(clip.scene.body.stature_m),
             backgrounds=[np.ascontiguousarray(b[..., ::-1]) for b in clip.backgrounds],
         )
+        steps = (
+            (k, k / clip.fps, [np.ascontiguousarray(f[k][..., ::-1]) for f in clip.frames])
+            for k in range(len(clip.truth))
+        )
         queue, results = ResultQueue(), []
-        for k in range(len(clip.truth)):
-            res = tracker.process(
-                k, k / clip.fps, [np.ascontiguousarray(f[k][..., ::-1]) for f in clip.frames]
-            )
-            results += queue.push(res, tracker.pending_from)
+        # as `gaitwatch track` runs it: decoding, segmentation and the 2D detector in threads
+        with closing(tracked(tracker, steps)) as stream:
+            for res in stream:
+                results += queue.push(res, tracker.pending_from)
         results += queue.flush()
         results = [r for r in results if r.has_pose]
         frames = [r.frame_index for r in results]

@@ -60,7 +60,6 @@ import itertools
 import logging
 import sys
 import time
-from concurrent.futures import ThreadPoolExecutor
 from contextlib import closing
 from pathlib import Path
 
@@ -70,10 +69,6 @@ from gaitwatch.errors import InputError
 from tracker.config import FILTER_NAMES, TrackerConfig, TrackerConfigError, load_tracker_config
 
 log = logging.getLogger(__name__)
-
-#: Run the built-in 2D detector of the next frame in a thread of its own while the tracker
-#: works on the current one (the poses are the same either way; tests switch it off to compare).
-DETECT_AHEAD = True
 
 
 class TrackArgumentError(InputError):
@@ -261,7 +256,7 @@ def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from service.poselog import PoseLogWriter
-    from service.prefetch import prefetched, with_next
+    from service.tracking import tracked
     from service.video import open_videos
     from tracker.camera import load_cameras
     from tracker.ensemble import make_tracker
@@ -418,49 +413,26 @@ def run(args: argparse.Namespace) -> int:
                 lighting.apply(tracker, frames)
             return tracker.segment(frames)
 
-        # The built-in 2D detector of the next frame runs in a thread of its own while this
-        # frame is tracked (Tracker.detect_ahead: the same detections, in the same order).
-        ahead = (
-            ThreadPoolExecutor(max_workers=1, thread_name_prefix="detect-ahead")
-            if DETECT_AHEAD and keypoint_files is None and tracker.detects_keypoints
-            else None
-        )
-        pending = None  # this frame's detection, started ahead (a Future), or None
+        def given(index: int) -> list:
+            return [None if f is None else f.get(index) for f in keypoint_files]
+
         try:
-            # The next frames are decoded and segmented in a second thread meanwhile.
+            # The next frames are decoded and segmented in a second thread meanwhile, and the
+            # built-in 2D detector runs on the next frame in a third (service.tracking).
             with closing(
-                prefetched(
+                tracked(
+                    tracker,
                     itertools.islice(videos, args.max_frames),
-                    lambda step: segment(step.frames),
-                    name="decode+segment",
+                    segment=segment,
+                    keypoints=None if keypoint_files is None else given,
                 )
-            ) as steps:
-                for ((index, time_s, frames), segs), following in with_next(steps):
-                    kps = None
-                    if keypoint_files is not None:
-                        kps = [None if f is None else f.get(index) for f in keypoint_files]
-                    detection = None if pending is None else pending.result()
-                    # With this frame's detection done, the next one's may start now; else
-                    # (several blobs, or the first frame) after this frame's own.
-                    pending = None
-                    if ahead is not None and following is not None and detection is not None:
-                        pending = ahead.submit(
-                            tracker.detect_ahead, following[0].frames, following[1]
-                        )
-                    res = tracker.process_segmentations(
-                        index, time_s, segs, frames, kps, detection=detection
-                    )
-                    if ahead is not None and following is not None and pending is None:
-                        pending = ahead.submit(
-                            tracker.detect_ahead, following[0].frames, following[1]
-                        )
+            ) as results:
+                for res in results:
                     relabel(queue.push(res, tracker.pending_from))
                     bar.update(1)
                     bar.set_postfix(weight=f"{res.weight:.2f}", refresh=False)
         finally:  # the frames still held (revision, leg labels, smoothing) are written, even after
             # an error
-            if ahead is not None:
-                ahead.shutdown(wait=True, cancel_futures=True)
             relabel(queue.flush())
             smooth(relabeller.flush())
             write(smoother.flush())
