@@ -487,21 +487,13 @@ def test_advise_tracks_its_clips_as_gaitwatch_track_does(monkeypatch) -> None:
     every detection made in turn."""
     import service.tracking as tracking
     from gaitwatch.sim.advise import SimClip
-    from gaitwatch.sim.synth import render_background
     from service.commands.simulate import tracker_callable
 
     walk = procedural_walk(distance_m=1.6, fps=20)
     cfg = SceneConfig(views=["oblique"], image_size=(320, 240), fps=20.0, max_frames=8, seed=1)
     scene = build_scene(walk, cfg)
     frames = [i[0] for _, i, _ in render_frames(scene)]
-    clip = SimClip(
-        cameras=list(scene.cameras),
-        frames=[np.stack(frames)],
-        backgrounds=[render_background(scene, 0)],
-        fps=cfg.fps,
-        truth=scene.truth,
-        scene=scene,
-    )
+    clip = SimClip.of_scene(scene, frames, cfg.fps)
     runs = []
     for ahead in (True, False):
         monkeypatch.setattr(tracking, "DETECT_AHEAD", ahead)

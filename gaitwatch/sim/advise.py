@@ -174,6 +174,19 @@ class SimClip:
     truth: Trajectory
     scene: Scene
 
+    @classmethod
+    def of_scene(cls, scene: Scene, frames: list[np.ndarray], fps: float) -> SimClip:
+        """The clip of a one-camera ``scene`` from its rendered RGB ``frames`` (one per time
+        step), with the empty scene's image and the scene's truth."""
+        return cls(
+            cameras=list(scene.cameras),
+            frames=[np.stack(frames)],
+            backgrounds=[render_background(scene, 0)],
+            fps=fps,
+            truth=scene.truth,
+            scene=scene,
+        )
+
 
 TrackerFn = Callable[[SimClip], Trajectory]
 
@@ -386,14 +399,7 @@ def advise(
             person_px_range=(min(heights), max(heights)) if heights else (0.0, 0.0),
         )
         if tracker_fn is not None:
-            clip = SimClip(
-                cameras=list(scene.cameras),
-                frames=[np.stack(frames)],
-                backgrounds=[render_background(scene, 0)],
-                fps=cfg.fps,
-                truth=scene.truth,
-                scene=scene,
-            )
+            clip = SimClip.of_scene(scene, frames, cfg.fps)
             est = tracker_fn(clip)
             res.error_mm, res.lower_limb_error_mm, res.frames_lost = pose_errors(scene.truth, est)
         advice.paths.append(res)
