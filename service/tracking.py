@@ -36,7 +36,6 @@ def tracked(
     *,
     segment: Callable[[Sequence[np.ndarray]], list] | None = None,
     keypoints: Callable[[int], list | None] | None = None,
-    ahead: bool | None = None,
 ) -> Iterator:
     """Yield ``tracker.process_segmentations(index, time_s, segs, frames, ...)`` for each step.
 
@@ -51,19 +50,15 @@ def tracked(
     keypoints : callable, optional
         Given key points of a frame index (per camera ``(19, 3)`` or None) or None; with it the
         built-in detector does not run ahead (the tracker uses what it is given).
-    ahead : bool, optional
-        Run the built-in detector of the next frame beside the tracker (default
-        :data:`DETECT_AHEAD`).
 
     An error raised by the steps, the segmentation, the detector or the tracker is raised when
     the caller reaches that step: every result before it has been handed out. Close the
     generator (``contextlib.closing``) to stop the threads early.
     """
     seg = tracker.segment if segment is None else segment
-    ahead = DETECT_AHEAD if ahead is None else ahead
     pool = (
         ThreadPoolExecutor(max_workers=1, thread_name_prefix="detect-ahead")
-        if ahead and keypoints is None and tracker.detects_keypoints
+        if DETECT_AHEAD and keypoints is None and tracker.detects_keypoints
         else None
     )
     pending: Future | None = None  # this step's detection, started ahead

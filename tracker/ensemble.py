@@ -243,17 +243,13 @@ class EnsembleTracker:
         built-in detector runs once, on the silhouettes before each track chooses its blobs,
         or :meth:`detect_ahead` ran it; the shadow pixels under the person it found are given
         back then, :meth:`tracker.pipeline.Tracker.give_back_shadows`)."""
-        first = self.tracks[0]
         if detection is not None:
             detection.check_use(segs, keypoints)
-            if detection.ran:
-                keypoints, heatmaps = detection.keypoints, detection.heatmaps
-                segs = first.give_back_shadows(segs, detection.people)
         elif keypoints is None and frames is not None and not all(s.empty for s in segs):
-            keypoints = first.detect_keypoints(frames, segs)
-            det = first.detector
-            heatmaps = None if det is None else det.last_heatmaps
-            segs = first.give_back_shadows(segs, None if det is None else det.last_people)
+            detection = self.detect_ahead(frames, segs)  # now, in turn
+        if detection is not None and detection.ran:
+            keypoints, heatmaps = detection.keypoints, detection.heatmaps
+            segs = self.tracks[0].give_back_shadows(segs, detection.people)
         results = [
             t.process_segmentations(frame_index, time_s, segs, frames, keypoints, heatmaps)
             for t in self.tracks

@@ -199,10 +199,6 @@ class Detection:
             raise ValueError("the detection made ahead is of other silhouettes")
 
 
-#: ``Tracker.give_back_shadows``'s default: the people of the detector's last detection.
-_LAST_PEOPLE = object()
-
-
 @dataclass
 class _Observation:
     """What the estimate of one time step is made from, kept for the backward pass: the
@@ -798,17 +794,14 @@ class Tracker:
         return Detection.found(segs, self.detect_keypoints(frames, segs), self.detector)
 
     def give_back_shadows(
-        self, segs: Sequence[Segmentation], people: object = _LAST_PEOPLE
+        self, segs: Sequence[Segmentation], people: list | None
     ) -> list[Segmentation]:
         """``segs`` with the pixels their shadow test removed given back where the person
-        segmentation of the built-in detector covers them (``people``: a
-        :class:`Detection`'s, by default those of the detector's last :meth:`detect_keypoints`;
+        segmentation of the built-in detector covers them (``people``: a :class:`Detection`'s;
         ``config.keypoints.shadow_given_back``, :meth:`tracker.segmentation.Segmenter.
         with_shadow_given_back`): a camera's own segmentation where the detector found nobody
         or kept no person segmentation."""
         det = self.detector
-        if people is _LAST_PEOPLE:
-            people = None if det is None else det.last_people
         if people is None:
             return list(segs)
         if len(people) != len(segs):
@@ -897,16 +890,13 @@ class Tracker:
         if detected:  # only after its own detection: the last one's people are stale
             if detection is None:
                 keypoints = self.detect_keypoints(frames, chosen)
-                heatmaps, people = self.detector.last_heatmaps, self.detector.last_people
-            elif detection.ran and all(c is s for c, s in zip(chosen, detection.segs, strict=True)):
-                keypoints, heatmaps, people = (
-                    detection.keypoints,
-                    detection.heatmaps,
-                    detection.people,
-                )
-            else:  # detect_ahead and this choice disagree: a bug, not bad input
+                detection = Detection.found(chosen, keypoints, self.detector)
+            elif not (
+                detection.ran and all(c is s for c, s in zip(chosen, detection.segs, strict=True))
+            ):  # detect_ahead and this choice disagree: a bug, not bad input
                 raise RuntimeError("the detection made ahead does not match this step")
-            given_back = self.give_back_shadows(segs, people)
+            keypoints, heatmaps = detection.keypoints, detection.heatmaps
+            given_back = self.give_back_shadows(segs, detection.people)
             if any(g is not s for g, s in zip(given_back, segs, strict=True)):
                 chose = []
                 chosen = [self._choose_blobs(i, s, chose) for i, s in enumerate(given_back)]
